@@ -1,0 +1,68 @@
+# roughfriction — set-up, tests, figures, benchmarks.
+# `make test` installs what it needs (Debian packages + .venv), idempotently and quietly.
+
+SHELL := /bin/bash
+VENV  := .venv
+PY    := $(VENV)/bin/python
+NP    ?= 2
+
+# OpenMPI refuses to run as root without these; single-threaded BLAS beside MPI ranks.
+export OMPI_ALLOW_RUN_AS_ROOT := 1
+export OMPI_ALLOW_RUN_AS_ROOT_CONFIRM := 1
+export OMP_NUM_THREADS := 1
+export OPENBLAS_NUM_THREADS := 1
+export XDG_CACHE_HOME ?= $(CURDIR)/.cache
+MPIRUN := mpirun -n $(NP) --oversubscribe
+
+DEBIAN_PACKAGES := python3-dolfinx-real python3-petsc4py-real python3-mpi4py python3-gmsh \
+	python3-h5py python3-scipy python3-matplotlib python3-venv libopenblas0-serial
+
+.PHONY: setup test test-serial test-mpi lint figures bench bench-multiscale clean
+
+# --- set-up -----------------------------------------------------------------------------
+$(VENV)/.apt-done:
+	@missing=$$(dpkg-query -W -f='$${Package} $${Status}\n' $(DEBIAN_PACKAGES) 2>/dev/null \
+	    | awk '$$4 != "installed" {print $$1}'; \
+	  for p in $(DEBIAN_PACKAGES); do dpkg-query -W $$p >/dev/null 2>&1 || echo $$p; done); \
+	if [ -n "$$missing" ]; then \
+	  echo "installing Debian packages: $$(echo $$missing | tr '\n' ' ')"; \
+	  apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq $$missing >/dev/null; \
+	fi
+	@mkdir -p $(VENV) && touch $@
+
+$(VENV)/bin/python: $(VENV)/.apt-done
+	@/usr/bin/python3 -m venv --system-site-packages $(VENV)
+
+# pip must never replace Debian's numpy: pin it to the version Debian installed.
+$(VENV)/.installed: pyproject.toml $(VENV)/bin/python
+	@/usr/bin/python3 -c 'import numpy; print(f"numpy=={numpy.__version__}")' > $(VENV)/constraints.txt
+	@$(PY) -m pip install -q --disable-pip-version-check -c $(VENV)/constraints.txt -e '.[dev]'
+	@touch $@
+
+setup: $(VENV)/.installed
+
+# --- tests ------------------------------------------------------------------------------
+test: setup
+	@$(PY) -m pytest -q -m "not mpi"
+	@$(MPIRUN) $(PY) -m pytest -q -m mpi -p no:cacheprovider; rc=$$?; \
+	  if [ $$rc -eq 5 ]; then echo "no MPI tests collected"; else exit $$rc; fi
+
+lint: setup
+	@$(VENV)/bin/ruff check .
+
+# --- figures ----------------------------------------------------------------------------
+THEORY_FIGURES := fig12 fig13 fig14 fig17 fig18 fig19
+.PHONY: $(THEORY_FIGURES)
+$(THEORY_FIGURES): setup
+	@$(VENV)/bin/roughfriction figure $@
+
+figures: $(THEORY_FIGURES)
+
+# --- benchmarks -------------------------------------------------------------------------
+bench-multiscale: setup
+	@$(VENV)/bin/roughfriction bench multiscale
+
+bench: bench-multiscale
+
+clean:
+	rm -rf results .cache .pytest_cache

@@ -1,0 +1,1 @@
+"""Command line, one script per figure, benchmarks."""
