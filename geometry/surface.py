@@ -1,4 +1,9 @@
-"""Rough surfaces as height maps on a square grid: the ``Surface`` type."""
+"""Rough surfaces as height maps on a square grid: the ``Surface`` type and grid operations.
+
+Operations on height arrays (detrend, fill, crop, periodic closure) work on plain NumPy arrays
+[m], NaN marking missing points; re-gridding (``resample``, ``spectral_interpolate``) maps a
+``Surface`` to a new ``Surface``.
+"""
 
 from __future__ import annotations
 
@@ -6,6 +11,7 @@ import hashlib
 from dataclasses import dataclass
 
 import numpy as np
+from scipy import interpolate, ndimage
 
 from geometry.errors import InputError
 
@@ -73,3 +79,214 @@ class Surface:
         h.update(np.ascontiguousarray(self.heights, dtype="<f8").tobytes())
         h.update(np.float64(self.spacing).tobytes())
         return h.hexdigest()
+
+
+# --- operations on height arrays ------------------------------------------------------------
+
+
+def _as_grid(heights) -> np.ndarray:
+    """Return ``heights`` as a float 2-D array; raise InputError for any other shape."""
+    z = np.asarray(heights, dtype=float)
+    if z.ndim != 2:
+        raise InputError(f"heights must be a 2-D grid, got a {z.ndim}-D array of shape {z.shape}")
+    return z
+
+
+def _least_squares_plane(heights: np.ndarray) -> np.ndarray:
+    """Least-squares plane through the finite points of ``heights``, evaluated on the whole grid.
+
+    Parameters
+    ----------
+    heights : numpy.ndarray
+        Heights [any length unit], shape (m, k); NaN/inf mark missing points.
+
+    Returns
+    -------
+    numpy.ndarray
+        Plane a + b i + c j [same unit], shape (m, k), fitted on grid indices i, j (a plane in
+        index space is a plane in physical space, so the spacing is not needed).
+    """
+    z = _as_grid(heights)
+    measured = np.isfinite(z)
+    if np.count_nonzero(measured) < 3:
+        raise InputError(f"a plane needs at least 3 measured heights, got {measured.sum()}")
+    i, j = np.indices(z.shape, dtype=float)
+    i -= i.mean()  # centred coordinates keep the normal equations well conditioned
+    j -= j.mean()
+    design = np.column_stack([np.ones(measured.sum()), i[measured], j[measured]])
+    coefficients, *_ = np.linalg.lstsq(design, z[measured], rcond=None)
+    return coefficients[0] + coefficients[1] * i + coefficients[2] * j
+
+
+def detrend_plane(heights) -> np.ndarray:
+    """Remove the least-squares plane (fitted on the finite points; missing points stay missing).
+
+    Parameters
+    ----------
+    heights : array_like
+        Heights [m], shape (m, k); NaN/inf mark missing points.
+
+    Returns
+    -------
+    numpy.ndarray
+        Heights minus the plane [m], shape (m, k); their mean over the finite points is zero.
+    """
+    z = _as_grid(heights)
+    return z - _least_squares_plane(z)
+
+
+def fill_missing(heights, method: str) -> np.ndarray:
+    """Replace missing (NaN/inf) heights.
+
+    Parameters
+    ----------
+    heights : array_like
+        Heights [m], shape (m, k), with at least one finite point (three for ``"plane"``).
+    method : {"nearest", "plane"}
+        ``"nearest"``: the nearest measured height (Euclidean distance on the grid, ties broken
+        by ``scipy.ndimage.distance_transform_edt``); ``"plane"``: the least-squares plane
+        through the measured points evaluated there.
+
+    Returns
+    -------
+    numpy.ndarray
+        Heights [m] with every point finite; measured points are unchanged.
+    """
+    z = _as_grid(heights)
+    missing = ~np.isfinite(z)
+    if method == "nearest":
+        if missing.all():
+            raise InputError("cannot fill: no height is measured")
+        nearest = ndimage.distance_transform_edt(
+            missing, return_distances=False, return_indices=True
+        )
+        return z[tuple(nearest)]
+    if method == "plane":
+        return np.where(missing, _least_squares_plane(z), z)
+    raise InputError(f"unknown fill method {method!r}: use 'nearest' or 'plane'")
+
+
+def crop_square(heights) -> np.ndarray:
+    """The largest centred square of a rectangular grid.
+
+    Parameters
+    ----------
+    heights : array_like
+        Heights [m], shape (m, k).
+
+    Returns
+    -------
+    numpy.ndarray
+        Heights [m], shape (s, s) with s = min(m, k); the excess is cut equally from both ends
+        of the longer axis (one more point from the end when the excess is odd).
+    """
+    z = _as_grid(heights)
+    side = min(z.shape)
+    start_x = (z.shape[0] - side) // 2
+    start_y = (z.shape[1] - side) // 2
+    return z[start_x : start_x + side, start_y : start_y + side].copy()
+
+
+def periodic_closure(heights) -> np.ndarray:
+    """Append the first row and column, so that the grid closes on itself periodically.
+
+    The paper's FEM surface: 128 x 128 heights become 129 x 129 nodes with z(i, n+1) = z(i, 1)
+    and z(n+1, j) = z(1, j).
+
+    Parameters
+    ----------
+    heights : array_like
+        Heights [m], shape (n, m).
+
+    Returns
+    -------
+    numpy.ndarray
+        Heights [m], shape (n + 1, m + 1).
+    """
+    return np.pad(_as_grid(heights), ((0, 1), (0, 1)), mode="wrap")
+
+
+def resample(surface: Surface, n: int) -> Surface:
+    """Re-grid a surface to n x n points over the same scan length.
+
+    Uses the bicubic interpolating spline ``scipy.interpolate.RectBivariateSpline`` (k = 3,
+    s = 0; FITPACK's not-a-knot-type knots), which passes through the old points and is exact
+    for polynomials up to degree 3 in each direction (so a linear ramp is kept exactly). It does
+    not assume periodicity; see :func:`spectral_interpolate` for the periodic alternative.
+
+    Parameters
+    ----------
+    surface : Surface
+        The surface (scan length L = (n_old - 1) h [m]).
+    n : int
+        New number of points per side [-], >= 4.
+
+    Returns
+    -------
+    Surface
+        n x n heights [m] with spacing L / (n - 1) [m], same name.
+    """
+    n = validate_grid_points(n)
+    old = np.arange(surface.n) * surface.spacing
+    new = np.linspace(0.0, surface.scan_length, n)
+    spline = interpolate.RectBivariateSpline(old, old, surface.heights, kx=3, ky=3, s=0)
+    return Surface(spline(new, new), surface.scan_length / (n - 1), surface.name)
+
+
+def _pad_spectrum(spectrum: np.ndarray, n_new: int, axis: int) -> np.ndarray:
+    """Zero-pad a discrete Fourier spectrum along one axis from n_old to n_new >= n_old bins.
+
+    Non-negative frequencies stay at the front, negative ones move to the back, and for even
+    n_old the Nyquist bin is split into two equal halves at +n_old/2 and -n_old/2, which keeps the
+    spectrum Hermitian (real field) and the interpolant the band-limited cosine.
+    """
+    spectrum = np.moveaxis(spectrum, axis, 0)
+    n_old = spectrum.shape[0]
+    n_nonnegative = (n_old + 1) // 2  # bins 0 .. below Nyquist
+    n_negative = (n_old - 1) // 2
+    padded = np.zeros((n_new,) + spectrum.shape[1:], dtype=complex)
+    padded[:n_nonnegative] = spectrum[:n_nonnegative]
+    padded[n_new - n_negative :] = spectrum[n_old - n_negative :]
+    if n_old % 2 == 0:
+        nyquist = spectrum[n_old // 2] / 2
+        padded[n_old // 2] += nyquist
+        padded[n_new - n_old // 2] += nyquist
+    return np.moveaxis(padded, 0, axis)
+
+
+def spectral_interpolate(surface: Surface, n: int) -> Surface:
+    """Fourier (zero-padding) interpolation onto a finer periodic grid.
+
+    The surface is treated as one period of a periodic function, period P = n_old h [m]; the
+    result samples the band-limited trigonometric interpolant at spacing P / n. When n is a
+    multiple of n_old the old points are reproduced exactly (to rounding). A non-periodic surface
+    rings near its edges (Gibbs): detrend it first.
+
+    Parameters
+    ----------
+    surface : Surface
+        The surface, n_old x n_old heights [m].
+    n : int
+        New number of points per side [-], n >= n_old.
+
+    Returns
+    -------
+    Surface
+        n x n heights [m] with spacing n_old h / n [m], same name.
+    """
+    n = validate_grid_points(n)
+    if n < surface.n:
+        raise InputError(
+            f"spectral interpolation refines a grid: n = {n} < {surface.n}; use resample to coarsen"
+        )
+    spectrum = np.fft.fft2(surface.heights)
+    padded = _pad_spectrum(_pad_spectrum(spectrum, n, axis=0), n, axis=1)
+    heights = np.fft.ifft2(padded).real * (n / surface.n) ** 2
+    return Surface(heights, surface.period / n, surface.name)
+
+
+def validate_grid_points(n) -> int:
+    """Return ``n`` as an int after checking it is a number of points per side (integer >= 4)."""
+    if isinstance(n, bool) or not isinstance(n, int | np.integer) or n < 4:
+        raise InputError(f"number of grid points per side must be an integer >= 4, got {n!r}")
+    return int(n)

@@ -1,0 +1,297 @@
+"""Tests of geometry.readers on synthetic files and the shared measured samples."""
+
+import json
+import os
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from geometry.errors import InputError
+from geometry.generate import builtin_surface
+from geometry.readers import load_surface, parse_length, read_surface
+from geometry.statistics import rms_height
+from geometry.surface import detrend_plane
+
+# The shared measured samples live beside the checkout: <repo>/../shared/data/surfaces.
+DEFAULT_DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "surfaces"
+DATA = Path(os.environ.get("ROUGHFRICTION_SURFACE_DATA", DEFAULT_DATA))
+needs_data = pytest.mark.skipif(not DATA.is_dir(), reason=f"shared surface data not at {DATA}")
+
+
+def sample_json(relative):
+    return json.loads((DATA / relative).with_suffix(".json").read_text())
+
+
+# --- parse_length -------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    ("text", "metres"),
+    [
+        ("127um", 127e-6),
+        ("127 \u00b5m", 127e-6),  # micro sign
+        ("127 \u03bcm", 127e-6),  # Greek mu
+        ("0.127mm", 0.127e-3),
+        ("1.27e-4 m", 1.27e-4),
+        ("500nm", 500e-9),
+        (" .5 mm ", 0.5e-3),
+    ],
+)
+def test_parse_length(text, metres):
+    assert parse_length(text) == pytest.approx(metres, rel=1e-12)
+
+
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        ("127", "no unit; add one, e.g. 127um"),
+        ("12 furlongs", "unknown length unit"),
+        ("um", "cannot read a length"),
+    ],
+)
+def test_parse_length_errors(text, message):
+    with pytest.raises(InputError, match=message):
+        parse_length(text)
+
+
+# --- x-y-z point lists (synthetic) --------------------------------------------------------------
+
+
+def write_xyz(path, heights_um, step_mm=0.005, separator=",", blank_between_rows=True):
+    """ST400-style export: x fastest, x and y in mm, z in um, blank line between rows."""
+    lines = []
+    for j in range(heights_um.shape[1]):
+        for i in range(heights_um.shape[0]):
+            z = heights_um[i, j]
+            lines.append(separator.join([f"{i * step_mm:.4f}", f"{j * step_mm:.4f}", z]))
+        if blank_between_rows:
+            lines += ["", ""]
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def numeric(values):
+    return np.vectorize(lambda v: f"{v:.4f}")(values)
+
+
+def asymmetric_field(nx=6, ny=6):
+    i, j = np.indices((nx, ny), dtype=float)
+    return 100.0 + 3.0 * i**2 + 0.5 * j  # um; differs under transposition
+
+
+def test_xyz_orientation_units_and_no_detrend(tmp_path):
+    field = asymmetric_field()
+    surface = read_surface(write_xyz(tmp_path / "scan.txt", numeric(field)), detrend=False)
+    assert surface.name == "scan" and surface.spacing == pytest.approx(5e-6)
+    np.testing.assert_allclose(surface.heights, field * 1e-6, rtol=1e-12)  # [i, j] at x_i, y_j
+
+
+def test_xyz_accepts_whitespace_shuffled_points_and_unit_overrides(tmp_path):
+    field = asymmetric_field()
+    path = write_xyz(tmp_path / "scan.dat", numeric(field), separator=" ", step_mm=5.0)
+    lines = [line for line in path.read_text().splitlines() if line]
+    np.random.default_rng(0).shuffle(lines)
+    path.write_text("# x y z\n" + "\n".join(lines))
+    surface = read_surface(path, lateral_unit="um", height_unit="nm", detrend=False)
+    assert surface.spacing == pytest.approx(5e-6)
+    np.testing.assert_allclose(surface.heights, field * 1e-9, rtol=1e-12)
+
+
+@pytest.mark.parametrize("marker", ["-1.0000", "NM"])
+def test_xyz_unmeasured_points_are_missing(tmp_path, marker):
+    z = numeric(asymmetric_field())
+    z[2, 3] = marker
+    path = write_xyz(tmp_path / "holes.txt", z)
+    with pytest.raises(InputError, match="1 missing"):
+        read_surface(path)
+    filled = read_surface(path, fill="plane", detrend=False)
+    assert np.all(np.isfinite(filled.heights))
+
+
+def test_xyz_missing_marker_can_be_disabled(tmp_path):
+    z = numeric(asymmetric_field())
+    z[2, 3] = "-1.0000"
+    surface = read_surface(write_xyz(tmp_path / "s.txt", z), missing_height=None, detrend=False)
+    assert surface.heights[2, 3] == pytest.approx(-1e-6)
+
+
+def test_xyz_refuses_non_uniform_grid(tmp_path):
+    path = tmp_path / "bad.txt"
+    xs = [0.0, 0.005, 0.010, 0.020]
+    path.write_text("\n".join(f"{x},{y},1.0" for y in xs for x in xs))
+    with pytest.raises(InputError, match="not uniformly spaced"):
+        read_surface(path)
+
+
+def test_xyz_refuses_unequal_spacings_and_duplicates(tmp_path):
+    path = tmp_path / "rect.txt"
+    path.write_text("\n".join(f"{0.005 * i},{0.010 * j},1.0" for j in range(4) for i in range(4)))
+    with pytest.raises(InputError, match="differs from y spacing"):
+        read_surface(path)
+    path.write_text("\n".join(f"{0.005 * i},{0.005 * j},1.0" for j in range(4) for i in range(4)))
+    path.write_text(path.read_text() + "\n0.0,0.0,2.0\n")
+    with pytest.raises(InputError, match="more than once"):
+        read_surface(path)
+
+
+def test_xyz_refuses_size_and_ragged_rows(tmp_path):
+    path = write_xyz(tmp_path / "s.txt", numeric(asymmetric_field()))
+    with pytest.raises(InputError, match="drop --size"):
+        read_surface(path, size="25um")
+    path.write_text(path.read_text() + "0.1,0.1\n")
+    with pytest.raises(InputError, match="has 2 values"):
+        read_surface(path)
+
+
+# --- NANOVEA ST400 samples ----------------------------------------------------------------------
+
+
+@needs_data
+@pytest.mark.parametrize("name", ["test1", "test2", "test3"])
+def test_st400_samples(name):
+    surface = read_surface(DATA / "nanovea_st400" / f"{name}.txt")
+    stats = sample_json(f"nanovea_st400/{name}.txt")["stats_after_plane_detrend"]
+    assert surface.n == 101 and surface.spacing == pytest.approx(5e-6, rel=1e-9)
+    assert rms_height(surface.heights) == pytest.approx(stats["Sq_rms_height_m"], rel=1e-3)
+    z = surface.heights / surface.spacing
+    rms_slope = np.sqrt(np.mean(np.diff(z, axis=0) ** 2) + np.mean(np.diff(z, axis=1) ** 2))
+    assert rms_slope == pytest.approx(stats["Sdq_rms_slope_forward_diff"], rel=1e-3)
+
+
+@needs_data
+def test_st400_unmeasured_point_is_refused_then_filled():
+    path = DATA / "nanovea_st400" / "test4.txt"
+    with pytest.raises(InputError, match="'test4': 1 missing"):
+        read_surface(path)
+    stats = sample_json("nanovea_st400/test4.txt")["stats_after_plane_detrend"]
+    for method in ("nearest", "plane"):
+        surface = read_surface(path, fill=method)
+        assert surface.n == 101
+        assert rms_height(surface.heights) == pytest.approx(stats["Sq_rms_height_m"], rel=1e-3)
+    raw = read_surface(path, fill="nearest", detrend=False).heights
+    neighbours = raw[[49, 51, 50, 50], [79, 79, 78, 80]]
+    assert raw[50, 79] in neighbours  # x = 0.25 mm, y = 0.395 mm was written as z = -1
+
+
+# --- npy and matrix files -----------------------------------------------------------------------
+
+
+@needs_data
+@pytest.mark.parametrize("name", ["di-3", "matrix-2"])
+def test_instrument_npy_samples_match_their_sq(name):
+    meta = sample_json(f"instruments/{name}.npy")
+    n = meta["nb_grid_pts"][0]
+    size = (n - 1) * meta["pixel_size_m"][0]
+    surface = read_surface(DATA / "instruments" / f"{name}.npy", size=size)
+    assert surface.n == n and surface.spacing == pytest.approx(meta["pixel_size_m"][0], rel=1e-12)
+    sq = meta["stats_after_plane_detrend"]["Sq_rms_height_m"]
+    assert rms_height(surface.heights) == pytest.approx(sq, rel=1e-3)
+
+
+@needs_data
+@pytest.mark.parametrize("name", ["al3d-1", "opd-1", "sur-2"])
+def test_detrend_of_non_square_samples_matches_their_sq(name):
+    raw = np.load(DATA / "instruments" / f"{name}.npy")
+    sq = sample_json(f"instruments/{name}.npy")["stats_after_plane_detrend"]["Sq_rms_height_m"]
+    assert np.sqrt(np.nanmean(detrend_plane(raw) ** 2)) == pytest.approx(sq, rel=1e-3)
+
+
+@needs_data
+def test_opd_sample_needs_crop_and_fill():
+    path = DATA / "instruments" / "opd-1.npy"
+    with pytest.raises(InputError, match="not square.*--crop"):
+        read_surface(path, size="125.7um")
+    with pytest.raises(InputError, match="missing.*fill="):
+        read_surface(path, size="125.7um", square="crop")
+    surface = read_surface(path, size="125.7um", square="crop", fill="nearest")
+    assert surface.n == 480 and surface.spacing == pytest.approx(125.7e-6 / 639)
+
+
+def test_npy_needs_size_and_takes_height_unit(tmp_path):
+    path = tmp_path / "z.npy"
+    np.save(path, asymmetric_field())
+    with pytest.raises(InputError, match="--size"):
+        read_surface(path)
+    surface = read_surface(path, size="0.025mm", height_unit="um", detrend=False)
+    assert surface.spacing == pytest.approx(5e-6)
+    np.testing.assert_allclose(surface.heights, asymmetric_field() * 1e-6, rtol=1e-12)
+    with pytest.raises(InputError, match="lateral-unit"):
+        read_surface(path, size="25um", lateral_unit="mm")
+    with pytest.raises(InputError, match="> 0"):
+        read_surface(path, size=-1.0)
+
+
+def test_npy_refuses_one_dimensional_data(tmp_path):
+    path = tmp_path / "profile.npy"
+    np.save(path, np.arange(10.0))
+    with pytest.raises(InputError, match="2-D"):
+        read_surface(path, size="9um")
+
+
+@pytest.mark.parametrize("separator", [" ", ",", "\t"])
+def test_matrix_text_needs_size_and_height_unit(tmp_path, separator):
+    field = asymmetric_field(6, 5)
+    path = tmp_path / "m.csv"
+    path.write_text("\n".join(separator.join(f"{v:.6f}" for v in row) for row in field))
+    with pytest.raises(InputError, match="--size"):
+        read_surface(path, height_unit="um")
+    with pytest.raises(InputError, match="--height-unit"):
+        read_surface(path, size="25um")
+    with pytest.raises(InputError, match="6 x 5 is not square"):
+        read_surface(path, size="25um", height_unit="um")
+    surface = read_surface(path, size="25um", height_unit="um", square="crop", detrend=False)
+    np.testing.assert_allclose(surface.heights, field[:5] * 1e-6, rtol=1e-12)
+
+
+def test_general_reader_errors(tmp_path):
+    with pytest.raises(InputError, match="no such file"):
+        read_surface(tmp_path / "absent.npy")
+    path = tmp_path / "z.npy"
+    np.save(path, np.zeros((4, 4)))
+    with pytest.raises(InputError, match="unknown format"):
+        read_surface(path, fmt="tiff")
+    with pytest.raises(InputError, match="square option"):
+        read_surface(path, size="3um", square="pad")
+    with pytest.raises(InputError, match="unknown fill method"):
+        read_surface(path, size="3um", fill="spline")
+
+
+# --- instrument formats through SurfaceTopography -----------------------------------------------
+
+
+def test_instrument_format_without_the_extra_names_it(tmp_path, monkeypatch):
+    monkeypatch.setitem(sys.modules, "SurfaceTopography", None)  # makes the import fail
+    path = tmp_path / "scan.x3p"
+    path.write_bytes(b"PK")
+    with pytest.raises(InputError, match=r"pip install 'roughfriction\[instruments\]'"):
+        read_surface(path)
+
+
+@needs_data
+def test_instrument_file_matches_its_npy_conversion():
+    pytest.importorskip("SurfaceTopography")
+    surface = read_surface(DATA / "instruments" / "di-3.di")
+    meta = sample_json("instruments/di-3.npy")
+    assert surface.spacing == pytest.approx(meta["pixel_size_m"][0], rel=1e-9)
+    expected = detrend_plane(np.load(DATA / "instruments" / "di-3.npy"))
+    np.testing.assert_allclose(surface.heights, expected, rtol=0, atol=1e-6 * np.ptp(expected))
+
+
+# --- load_surface -------------------------------------------------------------------------------
+
+
+def test_load_surface_builtin_accepts_default_options_only():
+    surface = load_surface("G5", size=None, fill=None, square=None, detrend=True)
+    np.testing.assert_array_equal(surface.heights, builtin_surface("G5").heights)
+    with pytest.raises(InputError, match=r"\(size\) apply to files"):
+        load_surface("G5", size="127um")
+
+
+def test_load_surface_reads_files_and_lists_names_when_unknown(tmp_path):
+    path = tmp_path / "mine.npy"
+    np.save(path, asymmetric_field())
+    assert load_surface(str(path), size="25um").name == "mine"
+    with pytest.raises(InputError, match="neither a file nor a built-in.*G1.*63M"):
+        load_surface(str(tmp_path / "missing.npy"))
