@@ -1,0 +1,200 @@
+"""``roughfriction`` command line: surface statistics, theory, FEM, figures, benchmarks.
+
+Every subcommand prints a short human-readable table, or with ``--json`` one JSON object on
+stdout (SI units; NaN and infinities become ``null``) so that it can be piped into other tools.
+Errors the user can fix print one line on stderr and exit with status 2.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+
+from geometry.errors import InputError
+from solver.material import Material
+
+EXIT_INPUT_ERROR = 2
+
+
+def _finite_or_none(value):
+    """JSON has no NaN: map non-finite floats to None, recursively."""
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    if isinstance(value, dict):
+        return {k: _finite_or_none(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_finite_or_none(v) for v in value]
+    return value
+
+
+def emit(record: dict, as_json: bool) -> None:
+    """Print ``record`` as JSON or as an aligned key/value table."""
+    if as_json:
+        print(json.dumps(_finite_or_none(record), indent=None))
+        return
+    width = max(len(k) for k in record)
+    for key, value in record.items():
+        text = f"{value:.6g}" if isinstance(value, float) else str(value)
+        print(f"{key:<{width}}  {text}")
+
+
+def positive_float(text: str) -> float:
+    """argparse type: a finite number > 0."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+    if not (math.isfinite(value) and value > 0):
+        raise argparse.ArgumentTypeError(f"must be a finite number > 0, got {text}")
+    return value
+
+
+def add_surface_arguments(parser: argparse.ArgumentParser) -> None:
+    """SURFACE and the reader options shared by every subcommand that takes a surface."""
+    parser.add_argument(
+        "surface",
+        metavar="SURFACE",
+        help="height-map file (.npy, text matrix, x-y-z list incl. NANOVEA ST400 export, "
+        "instrument formats with the [instruments] extra) or a built-in name: "
+        "G1..G9 (Table 1), 2L, 8L, 63M (self-affine stand-ins)",
+    )
+    group = parser.add_argument_group("surface reading")
+    group.add_argument(
+        "--size",
+        help="scan length from first to last point, with a unit (e.g. 127um); needed for "
+        ".npy and matrix files",
+    )
+    group.add_argument("--height-unit", help="unit of the heights (m, mm, um, nm)")
+    group.add_argument("--lateral-unit", help="unit of x-y coordinates in point lists")
+    group.add_argument(
+        "--fill",
+        choices=["nearest", "plane"],
+        help="fill missing (NaN) heights; without it such files are refused",
+    )
+    group.add_argument(
+        "--crop", action="store_true", help="crop a non-square grid to its largest centred square"
+    )
+    group.add_argument(
+        "--no-detrend", action="store_true", help="keep the least-squares plane of the data"
+    )
+
+
+def surface_from_args(args):
+    """Load the surface named on the command line (file or built-in)."""
+    from geometry.readers import load_surface
+
+    return load_surface(
+        args.surface,
+        size=args.size,
+        height_unit=args.height_unit,
+        lateral_unit=args.lateral_unit,
+        fill=args.fill,
+        square="crop" if args.crop else None,
+        detrend=not args.no_detrend,
+    )
+
+
+def cmd_surface_stats(args) -> dict:
+    from geometry.statistics import surface_statistics
+
+    surface = surface_from_args(args)
+    stats = surface_statistics(surface, Material())
+    return {"surface": surface.name, "n": surface.n, "spacing": surface.spacing, **stats.as_dict()}
+
+
+def cmd_surface_list(args) -> dict:
+    from geometry.generate import BUILTIN_SURFACES
+
+    return {name: entry.description for name, entry in BUILTIN_SURFACES.items()}
+
+
+def cmd_multiscale(args) -> dict:
+    from multiscale.theory import evaluate_theory
+
+    surface = surface_from_args(args)
+    return evaluate_theory(surface, args.load, Material(), variant=args.variant).as_dict()
+
+
+def cmd_figure(args) -> dict:
+    from scripts.figures import FIGURES, make_figure
+
+    if args.name == "all":
+        names = list(FIGURES)
+    elif args.name in FIGURES:
+        names = [args.name]
+    else:
+        raise InputError(f"unknown figure {args.name!r}; known: all, {', '.join(FIGURES)}")
+    return {name: str(make_figure(name)) for name in names}
+
+
+def cmd_bench(args) -> dict:
+    from scripts.bench import BENCHMARKS
+
+    if args.name not in BENCHMARKS:
+        raise InputError(f"unknown benchmark {args.name!r}; known: {', '.join(BENCHMARKS)}")
+    return BENCHMARKS[args.name]()
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="roughfriction",
+        description="Static friction between rough metal surfaces: multi-scale theory and FEM.",
+    )
+    commands = parser.add_subparsers(dest="command", required=True)
+
+    surface = commands.add_parser("surface", help="surface statistics and built-in surfaces")
+    surface_commands = surface.add_subparsers(dest="surface_command", required=True)
+    stats = surface_commands.add_parser(
+        "stats", help="Rq, McCool moments, alpha, sigma_s, R, plasticity index psi (SI units)"
+    )
+    add_surface_arguments(stats)
+    stats.add_argument("--json", action="store_true", help="one JSON object on stdout")
+    stats.set_defaults(run=cmd_surface_stats)
+    listing = surface_commands.add_parser("list", help="the built-in surfaces")
+    listing.add_argument("--json", action="store_true", help="one JSON object on stdout")
+    listing.set_defaults(run=cmd_surface_list)
+
+    theory = commands.add_parser(
+        "multiscale",
+        help="multi-scale static friction (Sect. 4) beside CKE (Eq. 8) and LET (Eq. 20)",
+    )
+    add_surface_arguments(theory)
+    theory.add_argument(
+        "--load", type=positive_float, required=True, metavar="FSTAR",
+        help="dimensionless normal load F* = F_n / (A_n S_y)",
+    )
+    theory.add_argument(
+        "--variant", choices=["A", "B"], default="A",
+        help="shear stress passed to the junction-growth fit (Eq. 36): A = tau_c (default), "
+        "B = min(tau_i, tau_c)",
+    )
+    theory.add_argument("--json", action="store_true", help="one JSON object on stdout")
+    theory.set_defaults(run=cmd_multiscale)
+
+    figure = commands.add_parser("figure", help="make one of the paper's figures (PNG + CSV)")
+    figure.add_argument("name", help="figNN, or 'all'")
+    figure.add_argument("--json", action="store_true", help="one JSON object on stdout")
+    figure.set_defaults(run=cmd_figure)
+
+    bench = commands.add_parser("bench", help="benchmarks; numbers go to results/bench/")
+    bench.add_argument("name", help="which benchmark (multiscale)")
+    bench.add_argument("--json", action="store_true", help="one JSON object on stdout")
+    bench.set_defaults(run=cmd_bench)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    try:
+        record = args.run(args)
+    except InputError as error:
+        print(f"roughfriction: error: {error}", file=sys.stderr)
+        return EXIT_INPUT_ERROR
+    emit(record, args.json)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
