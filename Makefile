@@ -17,7 +17,7 @@ MPIRUN := mpirun -n $(NP) --oversubscribe
 DEBIAN_PACKAGES := python3-dolfinx-real python3-petsc4py-real python3-mpi4py python3-gmsh \
 	python3-h5py python3-scipy python3-matplotlib python3-venv libopenblas0-serial
 
-.PHONY: setup test test-serial test-mpi lint figures bench bench-multiscale clean
+.PHONY: setup test lint figures gallery bench bench-multiscale clean
 
 # --- set-up -----------------------------------------------------------------------------
 $(VENV)/.apt-done:
@@ -57,6 +57,10 @@ $(THEORY_FIGURES): setup
 	@$(VENV)/bin/roughfriction figure $@
 
 figures: $(THEORY_FIGURES)
+
+# Copy the figures the README shows into docs/figures/ (committed; figures/ is not).
+gallery: figures
+	@cp $(addprefix figures/,$(addsuffix .png,$(THEORY_FIGURES))) docs/figures/
 
 # --- benchmarks -------------------------------------------------------------------------
 bench-multiscale: setup
