@@ -51,16 +51,17 @@ lint: setup
 	@$(VENV)/bin/ruff check .
 
 # --- figures ----------------------------------------------------------------------------
+SURFACE_FIGURES := fig3 fig4 fig5 fig6
 THEORY_FIGURES := fig12 fig13 fig14 fig17 fig18 fig19
-.PHONY: $(THEORY_FIGURES)
-$(THEORY_FIGURES): setup
+.PHONY: $(SURFACE_FIGURES) $(THEORY_FIGURES)
+$(SURFACE_FIGURES) $(THEORY_FIGURES): setup
 	@$(VENV)/bin/roughfriction figure $@
 
-figures: $(THEORY_FIGURES)
+figures: $(SURFACE_FIGURES) $(THEORY_FIGURES)
 
 # Copy the figures the README shows into docs/figures/ (committed; figures/ is not).
 gallery: figures
-	@cp $(addprefix figures/,$(addsuffix .png,$(THEORY_FIGURES))) docs/figures/
+	@cp $(addprefix figures/,$(addsuffix .png,$(SURFACE_FIGURES) $(THEORY_FIGURES))) docs/figures/
 
 # --- benchmarks -------------------------------------------------------------------------
 bench-multiscale: setup

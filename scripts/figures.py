@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-FIGURES = ("fig12", "fig13", "fig14", "fig17", "fig18", "fig19")
+FIGURES = ("fig3", "fig4", "fig5", "fig6", "fig12", "fig13", "fig14", "fig17", "fig18", "fig19")
 FIGURE_DIR = Path("figures")
 
 

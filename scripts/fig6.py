@@ -1,0 +1,9 @@
+"""Fig. 6: topographical contour plot of Gaussian surface G5."""
+
+from scripts.surface_views import surface_contour
+
+SURFACE = "G5"
+
+
+def make():
+    return surface_contour(SURFACE)
