@@ -43,8 +43,8 @@ setup: $(VENV)/.installed
 
 # --- tests ------------------------------------------------------------------------------
 test: setup
-	@$(PY) -m pytest -q -m "not mpi"
-	@$(MPIRUN) $(PY) -m pytest -q -m mpi -p no:cacheprovider; rc=$$?; \
+	@$(PY) -m pytest -q --color=no -m "not mpi"
+	@$(MPIRUN) $(PY) -m pytest -q --color=no -m mpi -p no:cacheprovider; rc=$$?; \
 	  if [ $$rc -eq 5 ]; then echo "no MPI tests collected"; else exit $$rc; fi
 
 lint: setup

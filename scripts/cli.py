@@ -117,6 +117,12 @@ def cmd_multiscale(args) -> dict:
     return evaluate_theory(surface, args.load, Material(), variant=args.variant).as_dict()
 
 
+def cmd_fem(args) -> dict:
+    from solver.command import run_fem
+
+    return run_fem(args)
+
+
 def cmd_figure(args) -> dict:
     from scripts.figures import FIGURES, make_figure
 
@@ -173,6 +179,17 @@ def build_parser() -> argparse.ArgumentParser:
     theory.add_argument("--json", action="store_true", help="one JSON object on stdout")
     theory.set_defaults(run=cmd_multiscale)
 
+    fem = commands.add_parser(
+        "fem",
+        help="deterministic FEM: elastic-plastic rough block, rigid flat preloaded then slid "
+        "until every contact node slips (run under mpirun for several ranks)",
+    )
+    add_surface_arguments(fem)
+    from solver.command import add_fem_arguments  # imports no dolfinx
+
+    add_fem_arguments(fem)
+    fem.set_defaults(run=cmd_fem)
+
     figure = commands.add_parser("figure", help="make one of the paper's figures (PNG + CSV)")
     figure.add_argument("name", help="figNN, or 'all'")
     figure.add_argument("--json", action="store_true", help="one JSON object on stdout")
@@ -185,14 +202,22 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def is_root_rank() -> bool:
+    """True on MPI rank 0, or when MPI is not in use: only that process prints."""
+    mpi = sys.modules.get("mpi4py.MPI")
+    return mpi is None or mpi.COMM_WORLD.rank == 0
+
+
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:
         record = args.run(args)
     except InputError as error:
-        print(f"roughfriction: error: {error}", file=sys.stderr)
+        if is_root_rank():
+            print(f"roughfriction: error: {error}", file=sys.stderr)
         return EXIT_INPUT_ERROR
-    emit(record, args.json)
+    if is_root_rank():
+        emit(record, args.json)
     return 0
 
 

@@ -1,0 +1,75 @@
+"""FEM benchmark: G5 at F* = 0.155 on N x N surface grids, each run by ``mpirun`` as the CLI.
+
+    python -m solver.benchmark --n 32 64 128 --ranks 2
+
+Writes ``results/bench/fem.csv`` (one row per N, rewritten after every run so that finished rows
+survive a later failure) with wall time, peak memory summed over the ranks, steps, Newton
+iterations, mu_s and the problem size; each run's full record goes to
+``results/bench/fem_G5_N<N>.h5``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import h5py
+import numpy as np
+
+BENCH_DIR = Path("results/bench")
+SURFACE, LOAD = "G5", 0.155
+COLUMNS = ("n", "ranks", "cells", "reduced_dofs", "linear_solver", "wall_s", "peak_memory_gb",
+           "steps", "newton_iterations", "mu_s", "converged")
+
+
+def run_size(n: int, ranks: int) -> dict:
+    """Run one grid size through ``python -m solver.command`` under mpirun; return its row."""
+    output = BENCH_DIR / f"fem_{SURFACE}_N{n}.h5"
+    command = ["mpirun", "-n", str(ranks), "--oversubscribe", sys.executable, "-m",
+               "solver.command", SURFACE, "--load", str(LOAD), "--n", str(n), "--json",
+               "--output", str(output)]
+    finished = subprocess.run(command, capture_output=True, text=True)
+    with h5py.File(output) as h5:
+        summary = json.loads(h5.attrs["summary"])
+        sizes = {key: value.item() if isinstance(value, np.generic) else value
+                 for key, value in h5["sizes"].attrs.items()}
+    if finished.returncode != 0:
+        print(finished.stderr.strip().splitlines()[-1], file=sys.stderr)
+    row = {"n": n, "ranks": ranks, **{key: sizes.get(key) for key in
+                                      ("cells", "reduced_dofs", "linear_solver",
+                                       "peak_memory_gb")}}
+    row.update({key: summary[key] for key in ("wall_s", "steps", "newton_iterations", "mu_s",
+                                              "converged")})
+    return row
+
+
+def write_csv(rows: list[dict], path: Path) -> None:
+    """The benchmark table."""
+    with open(path, "w", newline="") as file:
+        writer = csv.DictWriter(file, fieldnames=COLUMNS)
+        writer.writeheader()
+        writer.writerows(rows)
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m solver.benchmark", description=__doc__,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--n", type=int, nargs="+", default=[32, 64, 128],
+                        help="surface cells per side (default 32 64 128)")
+    parser.add_argument("--ranks", type=int, default=2, help="MPI ranks (default 2)")
+    args = parser.parse_args(argv)
+    BENCH_DIR.mkdir(parents=True, exist_ok=True)
+    rows = []
+    for n in args.n:
+        rows.append(run_size(n, args.ranks))
+        write_csv(rows, BENCH_DIR / "fem.csv")
+        print(json.dumps(rows[-1]), flush=True)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,154 @@
+"""The ``fem`` command: deterministic FEM of a rough surface pressed and slid by a rigid flat.
+
+    mpirun -n 2 python -m solver.command G5 --load 0.155 --n 32 --json
+
+Grid: ``--n N`` is the number of surface cells per side of the FEM block (its top has N x N
+cells on (N + 1)^2 nodes, the last row and column closing the surface periodically, as in the
+paper). N equal to the surface's points uses the heights as they are; a smaller N re-grids the
+surface over its scan length with a bicubic spline (``geometry.surface.resample``); a larger N
+refines it by Fourier interpolation (``geometry.surface.spectral_interpolate``, the paper's
+spectral interpolation). Coarsening changes the surface (fewer, wider-spaced points: lower
+slopes), so results at different N are different surfaces, not a mesh-convergence study.
+
+A run writes every step and its inputs to an HDF5 file (``--output``, on rank 0) and returns the
+JSON summary. If the preload or the sliding does not converge, the partial results are written,
+labelled unconverged, and an ``InputError`` with the reason is raised (the CLI exits non-zero);
+mu_s is never reported from an unconverged state.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import tomllib
+from dataclasses import fields
+from pathlib import Path
+
+from geometry.errors import InputError
+from geometry.mesh import MeshOptions
+from geometry.surface import Surface, resample, spectral_interpolate
+from solver.material import Material
+from solver.options import FemCase, Loading, SolverOptions
+
+CONFIG_TABLES = {"mesh": MeshOptions, "solver": SolverOptions, "material": Material}
+CONFIG_KEYS = {"load", "n", "elastic", "normal_only"}
+
+
+def add_fem_arguments(parser: argparse.ArgumentParser) -> None:
+    """The FEM options (the surface argument and reader options are added by the caller)."""
+    parser.add_argument("--load", type=float, metavar="FSTAR",
+                        help="dimensionless normal load F* = F_n / (A_n S_y)")
+    parser.add_argument("--n", type=int, metavar="N",
+                        help="surface cells per side of the FEM grid (default: the surface's "
+                        "points per side)")
+    parser.add_argument("--elastic", action="store_true", default=None,
+                        help="linear elastic solid (no plasticity)")
+    parser.add_argument("--normal-only", action="store_true", default=None,
+                        help="preload only (mu_s is null)")
+    parser.add_argument("--xdmf", metavar="DIR", help="write fields to DIR/fields.xdmf")
+    parser.add_argument("--output", metavar="FILE",
+                        help="HDF5 results file (default results/fem/<surface>_F<load>_N<n>.h5)")
+    parser.add_argument("--config", metavar="TOML",
+                        help="case file: load, n, elastic, normal_only and tables [mesh], "
+                        "[solver], [material] (SI units); flags override it")
+    parser.add_argument("--json", action="store_true", help="one JSON object on stdout")
+
+
+def read_config(path: str | None) -> dict:
+    """The case file as a dict (empty without one); unknown keys are refused."""
+    if path is None:
+        return {}
+    try:
+        with open(path, "rb") as file:
+            config = tomllib.load(file)
+    except (OSError, tomllib.TOMLDecodeError) as error:
+        raise InputError(f"cannot read case file {path}: {error}") from None
+    unknown = set(config) - CONFIG_KEYS - set(CONFIG_TABLES)
+    for table, kind in CONFIG_TABLES.items():
+        known = {f.name for f in fields(kind)}
+        unknown |= {f"{table}.{key}" for key in config.get(table, {}) if key not in known}
+    if unknown:
+        raise InputError(f"unknown keys in {path}: {', '.join(sorted(unknown))}")
+    return config
+
+
+def surface_on_fem_grid(surface: Surface, n: int | None) -> Surface:
+    """The surface on N x N points: as is, resampled (coarser) or Fourier-interpolated (finer)."""
+    if n is None or n == surface.n:
+        return surface
+    if n < 4:
+        raise InputError(f"--n must be >= 4 surface cells per side, got {n}")
+    return resample(surface, n) if n < surface.n else spectral_interpolate(surface, n)
+
+
+def case_from_args(args, surface: Surface) -> FemCase:
+    """Build the FemCase from flags over the case file."""
+    config = read_config(args.config)
+
+    def setting(name):
+        flag = getattr(args, name)
+        return flag if flag is not None else config.get(name)
+
+    load = setting("load")
+    if load is None:
+        raise InputError("the normal load is required: --load FSTAR (or load = ... in --config)")
+    solver = dict(config.get("solver", {}))
+    if setting("elastic") is not None:
+        solver["elastic"] = bool(setting("elastic"))
+    try:
+        return FemCase(
+            surface=surface_on_fem_grid(surface, setting("n")),
+            loading=Loading(float(load), normal_only=bool(setting("normal_only"))),
+            material=Material(**config.get("material", {})),
+            mesh=MeshOptions(**config.get("mesh", {})),
+            solver=SolverOptions(**solver),
+        )
+    except TypeError as error:
+        raise InputError(f"bad case settings: {error}") from None
+
+
+def default_output(case: FemCase) -> Path:
+    """results/fem/<surface>_F<load>_N<n>[_elastic][_normal].h5"""
+    name = case.surface.name or "surface"
+    suffix = ("_elastic" if case.solver.elastic else "") + (
+        "_normal" if case.loading.normal_only else "")
+    return Path("results/fem") / f"{name}_F{case.loading.load_star:g}_N{case.surface.n}{suffix}.h5"
+
+
+def run_fem(args) -> dict:
+    """Run the FEM case named by the command line; return the JSON summary.
+
+    Raises
+    ------
+    InputError
+        Bad input, an inverted mesh, or a run that did not converge (after writing the partial
+        results).
+    """
+    from mpi4py import MPI
+
+    from scripts.cli import surface_from_args
+    from solver.results import write_hdf5
+    from solver.run import run
+
+    comm = MPI.COMM_WORLD
+    case = case_from_args(args, surface_from_args(args))
+    outcome = run(case, comm, xdmf_directory=args.xdmf)
+    output = Path(args.output) if args.output else default_output(case)
+    if comm.rank == 0:
+        write_hdf5(output, case.inputs(), outcome.result, outcome.maps)
+    comm.barrier()
+    if not outcome.result.converged:
+        raise InputError(f"FEM run did not converge: {outcome.result.message} "
+                         f"(partial results in {output})")
+    return outcome.result.summary()
+
+
+def main(argv: list[str] | None = None) -> int:
+    """``python -m solver.command ARGS``: the same as ``roughfriction fem ARGS``."""
+    from scripts.cli import main as cli_main
+
+    return cli_main(["fem", *(sys.argv[1:] if argv is None else argv)])
+
+
+if __name__ == "__main__":
+    sys.exit(main())

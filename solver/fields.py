@@ -1,0 +1,86 @@
+"""Field output on request (``--xdmf DIR``): one XDMF time series, written at the end of the
+preload (t = 0) and at sliding inception (t = 1).
+
+Fields: displacement [m] (P1 vector); von Mises stress [Pa] and equivalent plastic strain [-]
+(cell averages over the Gauss points, DG0); contact pressure [Pa], shear traction magnitude [Pa]
+and contact state (0 open, 1 stick, 2 slip) on the surface nodes (P1 scalars, zero below the
+surface; periodic images copy their master node).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+from dolfinx import fem, io
+
+from geometry.mesh import Block
+from solver.contact import ContactResponse, RigidFlat
+from solver.periodic import dof_node_grid_index
+from solver.solid import Solid
+
+
+class FieldWriter:
+    """Writes the solid and contact fields to ``DIRECTORY/fields.xdmf``.
+
+    Parameters
+    ----------
+    directory : str or pathlib.Path
+        Output directory (created).
+    block : Block
+        The mesh.
+    solid : Solid
+        Displacement and plastic state.
+    flat : RigidFlat
+        The contact nodes.
+    """
+
+    def __init__(self, directory, block: Block, solid: Solid, flat: RigidFlat):
+        mesh = block.mesh
+        if mesh.comm.rank == 0:
+            Path(directory).mkdir(parents=True, exist_ok=True)
+        mesh.comm.barrier()
+        self.solid, self.flat = solid, flat
+        self.file = io.XDMFFile(mesh.comm, str(Path(directory) / "fields.xdmf"), "w")
+        self.file.write_mesh(mesh)
+
+        cell_space = fem.FunctionSpace(mesh, ("DG", 0))
+        self.von_mises = fem.Function(cell_space, name="von_mises")
+        self.plastic_strain = fem.Function(cell_space, name="equivalent_plastic_strain")
+        node_space, component_dofs = solid.V.sub(0).collapse()
+        self.pressure = fem.Function(node_space, name="contact_pressure")
+        self.shear = fem.Function(node_space, name="shear_traction")
+        self.state = fem.Function(node_space, name="contact_state")
+
+        # Surface nodes of the scalar space and their (i mod N, j mod N) on the surface grid.
+        grid = dof_node_grid_index(solid.V, block)[np.asarray(component_dofs) // 3]
+        surface = np.flatnonzero(grid[:, 2] == block.num_layers)
+        self._surface_dofs = surface
+        self._surface_ij = grid[surface, :2] % block.n
+
+    def write(self, time: float, contact: ContactResponse) -> None:
+        """Write all fields at ``time`` for the committed state and its contact response."""
+        solid = self.solid
+        num_cells = solid.num_cells
+        self.von_mises.x.array[:num_cells] = solid.cell_von_mises()
+        self.plastic_strain.x.array[:num_cells] = solid.cell_plastic_strain()
+        state = np.where(contact.slipping, 2.0, np.where(contact.in_contact, 1.0, 0.0))
+        nodal = {
+            self.pressure: contact.pressure,
+            self.shear: np.linalg.norm(contact.traction, axis=1),
+            self.state: state,
+        }
+        for function, values in nodal.items():
+            grid = self.flat.gather_grid(values)
+            function.x.array[:] = 0.0
+            function.x.array[self._surface_dofs] = grid[self._surface_ij[:, 0],
+                                                        self._surface_ij[:, 1]]
+        for function in (self.von_mises, self.plastic_strain):
+            function.x.scatter_forward()
+        for function in (solid.displacement, self.von_mises, self.plastic_strain, self.pressure,
+                         self.shear, self.state):
+            self.file.write_function(function, time)
+
+    def close(self) -> None:
+        """Close the XDMF file."""
+        self.file.close()

@@ -1,0 +1,153 @@
+"""The FEM case: what is computed (Loading) and how (SolverOptions), with the surface, material
+and mesh options in one frozen ``FemCase`` that flows from the command line to the results."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass, field
+
+from geometry.errors import InputError
+from geometry.mesh import MeshOptions
+from geometry.surface import Surface
+from solver.material import Material
+
+LINEAR_SOLVERS = ("auto", "direct", "iterative")
+INTEGRATIONS = ("selective", "full")
+
+
+@dataclass(frozen=True)
+class Loading:
+    """Normal preload, then (unless ``normal_only``) tangential sliding of the flat.
+
+    Parameters
+    ----------
+    load_star : float
+        Dimensionless normal load F* = F_n / (A_n S_y) [-].
+    normal_only : bool
+        Stop after the preload (no mu_s).
+    """
+
+    load_star: float
+    normal_only: bool = False
+
+    def __post_init__(self):
+        if not (math.isfinite(self.load_star) and self.load_star > 0):
+            raise InputError(f"normal load F* must be > 0, got {self.load_star}")
+
+
+@dataclass(frozen=True)
+class SolverOptions:
+    """Numerical choices of the FEM solve.
+
+    Parameters
+    ----------
+    elastic : bool
+        Linear elastic solid (no plasticity).
+    integration : {"selective", "full"}
+        Pressure at 1 point per cell (SRI, default) or at 2 x 2 x 2 points (locks).
+    penalty : float
+        Contact penalty eps_N = eps_T = penalty E' / h_grid [-].
+    penetration_tolerance : float
+        Augmented Lagrangian: Uzawa updates until no contact node penetrates deeper than this
+        times the grid spacing [-].
+    max_augmentations : int
+        Uzawa updates per load step before the step counts as failed [-].
+    linear_solver : {"auto", "direct", "iterative"}
+        MUMPS Cholesky, CG + GAMG, or direct up to ``direct_limit`` reduced dofs.
+    direct_limit : int
+        Largest reduced system solved directly by "auto" [dofs].
+    residual_tolerance : float
+        Newton: ||R|| and |sum p a - F_n| below this times F_n [-].
+    increment_tolerance : float
+        Newton: max |du| below this times the grid spacing [-].
+    max_iterations : int
+        Newton iterations before a step is cut [-].
+    normal_increments : int
+        Initial number of preload increments [-] (adapted).
+    first_slide : float
+        First tangential increment as a fraction of tau_c H / G, the slide at which a flat
+        block would slip [-] (adapted).
+    max_slide : float
+        Give up (unconverged) if sliding has not started after this multiple of tau_c H / G [-].
+    max_steps : int
+        Upper bound on accepted plus cut steps [-].
+    """
+
+    elastic: bool = False
+    integration: str = "selective"
+    penalty: float = 10.0
+    penetration_tolerance: float = 1e-4
+    max_augmentations: int = 10
+    linear_solver: str = "auto"
+    direct_limit: int = 12_000
+    residual_tolerance: float = 1e-6
+    increment_tolerance: float = 1e-8
+    max_iterations: int = 15
+    normal_increments: int = 5
+    first_slide: float = 0.02
+    max_slide: float = 20.0
+    max_steps: int = 300
+
+    def __post_init__(self):
+        if self.integration not in INTEGRATIONS:
+            raise InputError(f"integration must be one of {INTEGRATIONS}, got {self.integration!r}")
+        if self.linear_solver not in LINEAR_SOLVERS:
+            raise InputError(
+                f"linear solver must be one of {LINEAR_SOLVERS}, got {self.linear_solver!r}")
+        positive = ("penalty", "penetration_tolerance", "residual_tolerance",
+                    "increment_tolerance", "first_slide", "max_slide")
+        for name, value in ((name, getattr(self, name)) for name in positive):
+            if not (math.isfinite(value) and value > 0):
+                raise InputError(f"solver option {name} must be > 0, got {value}")
+        for name in ("direct_limit", "max_iterations", "normal_increments", "max_steps"):
+            if getattr(self, name) < 1:
+                raise InputError(f"solver option {name} must be >= 1, got {getattr(self, name)}")
+        if self.max_augmentations < 0:
+            raise InputError(f"solver option max_augmentations must be >= 0, got "
+                             f"{self.max_augmentations}")
+
+
+@dataclass(frozen=True, eq=False)
+class FemCase:
+    """Everything one FEM run depends on.
+
+    Parameters
+    ----------
+    surface : Surface
+        Height map on the FEM grid (N x N, spacing h [m]); the block's period is N h.
+    loading : Loading
+        Preload and sliding.
+    material : Material
+        Constants [Pa].
+    mesh : MeshOptions
+        Layering of the block.
+    solver : SolverOptions
+        Numerics.
+    """
+
+    surface: Surface
+    loading: Loading
+    material: Material = field(default_factory=Material)
+    mesh: MeshOptions = field(default_factory=MeshOptions)
+    solver: SolverOptions = field(default_factory=SolverOptions)
+
+    @property
+    def nominal_area(self) -> float:
+        """A_n = (N h)^2 [m^2]."""
+        return self.surface.period**2
+
+    @property
+    def normal_force(self) -> float:
+        """Target F_n = F* A_n S_y [N]."""
+        return self.loading.load_star * self.nominal_area * self.material.Sy
+
+    def inputs(self) -> dict:
+        """The case as nested plain values (for results files)."""
+        return {
+            "surface": {"name": self.surface.name, "n": self.surface.n,
+                        "spacing_m": self.surface.spacing, "sha256": self.surface.digest()},
+            "loading": asdict(self.loading),
+            "material": asdict(self.material),
+            "mesh": asdict(self.mesh),
+            "solver": asdict(self.solver),
+        }

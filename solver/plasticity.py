@@ -1,0 +1,124 @@
+"""J2 (von Mises) plasticity with linear isotropic hardening: radial return, NumPy only.
+
+Small strain. The law acts on the strain deviator only: the pressure K tr(eps) is elastic and
+J2 does not depend on it, so the solid's volumetric and deviatoric parts can be integrated with
+different quadrature rules without changing the constitutive law.
+
+All arrays are stacks over quadrature points: strains and stresses have shape (m, 3, 3).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from solver.material import Material
+
+#: Points with von Mises overstress f > -YIELD_TOLERANCE S_y count as on the yield surface [-].
+YIELD_TOLERANCE = 1e-9
+
+
+@dataclass(frozen=True)
+class J2State:
+    """Committed history at m quadrature points.
+
+    Attributes
+    ----------
+    plastic_strain : numpy.ndarray
+        Plastic strain (deviatoric) [-], shape (m, 3, 3).
+    equivalent_plastic_strain : numpy.ndarray
+        Accumulated equivalent plastic strain p = int sqrt(2/3 deps_p : deps_p) [-], shape (m,).
+    """
+
+    plastic_strain: np.ndarray
+    equivalent_plastic_strain: np.ndarray
+
+    @classmethod
+    def virgin(cls, num_points: int) -> J2State:
+        """Undeformed material at ``num_points`` points."""
+        return cls(np.zeros((num_points, 3, 3)), np.zeros(num_points))
+
+
+@dataclass(frozen=True)
+class J2Response:
+    """Stress, trial history and consistent tangent for one strain state.
+
+    The deviatoric consistent tangent is ``2 G beta P_dev - 2 G gamma n (x) n`` with P_dev the
+    deviatoric projector and n the unit flow direction; beta = 1, gamma = 0 where elastic.
+
+    Attributes
+    ----------
+    stress_deviator : numpy.ndarray
+        s [Pa], shape (m, 3, 3).
+    state : J2State
+        History if this strain is accepted.
+    beta : numpy.ndarray
+        Tangent factor [-], shape (m,).
+    gamma : numpy.ndarray
+        Tangent factor [-], shape (m,).
+    flow_direction : numpy.ndarray
+        Unit deviatoric flow direction n [-], shape (m, 3, 3) (zero where elastic).
+    yielding : numpy.ndarray
+        Points on the yield surface (plastic tangent), shape (m,), bool.
+    """
+
+    stress_deviator: np.ndarray
+    state: J2State
+    beta: np.ndarray
+    gamma: np.ndarray
+    flow_direction: np.ndarray
+    yielding: np.ndarray
+
+
+def deviator(tensor: np.ndarray) -> np.ndarray:
+    """Deviatoric part of a stack of 3 x 3 tensors, shape (m, 3, 3)."""
+    trace = np.trace(tensor, axis1=1, axis2=2)
+    return tensor - trace[:, None, None] / 3.0 * np.eye(3)
+
+
+def von_mises(stress_deviator: np.ndarray) -> np.ndarray:
+    """Equivalent stress q = sqrt(3/2 s : s) [Pa] of stress deviators s [Pa], shape (m,)."""
+    return np.sqrt(1.5 * np.einsum("mij,mij->m", stress_deviator, stress_deviator))
+
+
+def radial_return(strain_deviator: np.ndarray, committed: J2State, material: Material,
+                  elastic: bool = False) -> J2Response:
+    """Deviatoric stress and consistent tangent by the radial return map.
+
+    Parameters
+    ----------
+    strain_deviator : numpy.ndarray
+        Total strain deviator dev(eps) [-], shape (m, 3, 3).
+    committed : J2State
+        History at the last converged step.
+    material : Material
+        E, nu, S_y [Pa] and the hardening modulus H = E E_t / (E - E_t) [Pa].
+    elastic : bool
+        Skip the yield check (linear elastic solid).
+
+    Returns
+    -------
+    J2Response
+    """
+    shear = material.shear_modulus
+    hardening = material.hardening_modulus
+    trial = 2.0 * shear * (strain_deviator - committed.plastic_strain)
+    q_trial = von_mises(trial)
+    overstress = q_trial - (material.Sy + hardening * committed.equivalent_plastic_strain)
+    # On the yield surface (|f| within roundoff, e.g. every plastic point at the start of a step)
+    # the elastoplastic tangent is used with dp = 0: deciding by the sign of a roundoff-sized f
+    # would make the tangent, and the Newton path, differ between runs and rank counts.
+    on_surface = overstress > -YIELD_TOLERANCE * material.Sy
+    yielding = np.zeros(len(q_trial), bool) if elastic else on_surface
+    increment = np.where(yielding, np.maximum(overstress, 0.0), 0.0) / (3.0 * shear + hardening)
+    safe_q = np.where(yielding, q_trial, 1.0)
+    shrink = 1.0 - 3.0 * shear * increment / safe_q  # s = shrink * s_trial
+    trial_norm = np.sqrt(2.0 / 3.0) * safe_q  # |s_trial|
+    direction = np.where(yielding[:, None, None], trial / trial_norm[:, None, None], 0.0)
+    state = J2State(
+        committed.plastic_strain + (1.5 * increment / safe_q)[:, None, None] * trial,
+        committed.equivalent_plastic_strain + increment,
+    )
+    gamma = np.where(yielding, 3.0 * shear / (3.0 * shear + hardening) - (1.0 - shrink), 0.0)
+    return J2Response(shrink[:, None, None] * trial, state, shrink, gamma, direction, yielding)

@@ -1,0 +1,228 @@
+"""What a FEM run reports: per-step records, the run's summary (mu_s...), and the HDF5 file."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+from dataclasses import dataclass, fields
+from pathlib import Path
+
+import numpy as np
+from scipy import ndimage
+
+
+@dataclass(frozen=True)
+class StepRecord:
+    """State after one converged load step.
+
+    Attributes
+    ----------
+    phase : str
+        "normal" (preload) or "tangential".
+    normal_force : float
+        F_n = sum p_k a_k [N].
+    tangential_force : float
+        F_t, the x force on the flat [N].
+    slide : float
+        Flat's tangential displacement u_x [m].
+    flat_height : float
+        Flat position h above the mean surface plane [m].
+    area_ratio : float
+        A_r / A_n (contact nodes over surface nodes) [-].
+    contact_nodes : int
+        Surface nodes in contact [-].
+    contact_patches : int
+        Connected groups of contact nodes on the periodic grid [-].
+    slipping_nodes : int
+        Contact nodes at the friction cap [-].
+    plastic_volume_fraction : float
+        Volume fraction with plastic strain [-].
+    newton_iterations : int
+        Newton iterations of the step [-].
+    krylov_iterations : int
+        Krylov iterations of the step [-].
+    wall_s : float
+        Wall time since the start of loading [s].
+    """
+
+    phase: str
+    normal_force: float
+    tangential_force: float
+    slide: float
+    flat_height: float
+    area_ratio: float
+    contact_nodes: int
+    contact_patches: int
+    slipping_nodes: int
+    plastic_volume_fraction: float
+    newton_iterations: int
+    krylov_iterations: int
+    wall_s: float
+
+    def summary(self) -> str:
+        """One progress line."""
+        return (f"{self.phase:10s} Fn={self.normal_force:.5e} N Ft={self.tangential_force:.5e} N "
+                f"ux={self.slide:.4e} m Ar/An={self.area_ratio:.4f} nodes={self.contact_nodes} "
+                f"slip={self.slipping_nodes} plastic={self.plastic_volume_fraction:.4f} "
+                f"newton={self.newton_iterations} t={self.wall_s:.1f}s")
+
+
+def count_patches(contact: np.ndarray) -> int:
+    """Connected components of contact nodes on a periodic grid [-].
+
+    Two contact nodes belong to one patch when they are neighbours along x or y (they share a
+    cell edge), including across the periodic boundary.
+
+    Parameters
+    ----------
+    contact : numpy.ndarray
+        In-contact flags on the N x N surface grid, bool.
+    """
+    labels, count = ndimage.label(contact)
+    parent = np.arange(count + 1)
+
+    def root(label: int) -> int:
+        while parent[label] != label:
+            label = parent[label]
+        return label
+
+    for first, last in ((labels[0, :], labels[-1, :]), (labels[:, 0], labels[:, -1])):
+        for a, b in zip(first, last, strict=True):
+            if a and b:
+                parent[root(a)] = root(b)
+    return len({root(label) for label in range(1, count + 1)})
+
+
+@dataclass(frozen=True)
+class FemResult:
+    """Outcome of a run.
+
+    Attributes
+    ----------
+    records : list of StepRecord
+        Every converged step, preload then sliding.
+    converged : bool
+        The requested loading finished (preload, and sliding inception unless normal-only).
+    message : str
+        Why not, if not converged.
+    normal_only : bool
+        No sliding was requested.
+    timings : dict
+        Wall times of the phases [s].
+    sizes : dict
+        Cells, nodes, reduced dofs, ranks, linear solver.
+    """
+
+    records: list
+    converged: bool
+    message: str
+    normal_only: bool
+    timings: dict
+    sizes: dict
+
+    def _last(self, phase: str) -> StepRecord | None:
+        matching = [record for record in self.records if record.phase == phase]
+        return matching[-1] if matching else None
+
+    @property
+    def mu_s(self) -> float | None:
+        """Static friction coefficient (F_t)max / F_n at sliding inception; None unless the
+        sliding phase converged to inception."""
+        inception = self._last("tangential")
+        if self.normal_only or not self.converged or inception is None:
+            return None
+        return inception.tangential_force / inception.normal_force
+
+    def summary(self) -> dict:
+        """The JSON dict of the command line (SI units; None where not reached)."""
+        preload, inception = self._last("normal"), self._last("tangential")
+        sliding = self.mu_s is not None
+        return {
+            "mu_s": self.mu_s,
+            "Ft_max": inception.tangential_force if sliding else None,
+            "Fn": preload.normal_force if preload else None,
+            "area_ratio_normal": preload.area_ratio if preload else None,
+            "area_ratio_sliding": inception.area_ratio if sliding else None,
+            "junction_growth": (inception.area_ratio / preload.area_ratio - 1.0
+                                if sliding and preload.area_ratio > 0 else None),
+            "contact_nodes": (inception if sliding else preload).contact_nodes if preload else 0,
+            "contact_patches": ((inception if sliding else preload).contact_patches
+                                if preload else 0),
+            "steps": len(self.records),
+            "newton_iterations": sum(record.newton_iterations for record in self.records),
+            "wall_s": self.timings.get("total_s"),
+            "converged": self.converged,
+            "ranks": self.sizes.get("ranks"),
+        }
+
+
+def package_versions() -> dict:
+    """Versions of the numerical stack (recorded with every result)."""
+    import dolfinx
+    import gmsh
+    import h5py
+    import petsc4py
+    import scipy
+    import ufl
+
+    modules = {"dolfinx": dolfinx, "ufl": ufl, "petsc4py": petsc4py, "gmsh": gmsh, "numpy": np,
+               "scipy": scipy, "h5py": h5py}
+    return {name: module.__version__ for name, module in modules.items()}
+
+
+def git_revision() -> str:
+    """The source tree's git commit (with "-dirty" if modified), or "unknown"."""
+    root = Path(__file__).resolve().parent.parent
+    try:
+        revision = subprocess.run(["git", "describe", "--always", "--dirty"], cwd=root,
+                                  capture_output=True, text=True, timeout=10, check=True)
+    except (OSError, subprocess.SubprocessError):
+        return "unknown"
+    return revision.stdout.strip()
+
+
+def write_hdf5(path: Path, inputs: dict, result: FemResult, maps: dict) -> None:
+    """Write a run to HDF5 atomically (temporary file, then rename). Call on one rank.
+
+    Layout: root attributes ``inputs``, ``summary`` (JSON), ``versions``, ``git``,
+    ``converged``, ``message``; group ``steps`` with one dataset per :class:`StepRecord` field;
+    group ``timings`` and ``sizes`` as attributes; group ``maps`` with N x N contact maps.
+
+    Parameters
+    ----------
+    path : pathlib.Path
+        Destination file.
+    inputs : dict
+        The case (``FemCase.inputs()``).
+    result : FemResult
+        The run.
+    maps : dict
+        Name -> N x N array (e.g. contact at the end of preload and at inception).
+    """
+    import h5py
+
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    temporary = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    with h5py.File(temporary, "w") as h5:
+        h5.attrs["inputs"] = json.dumps(inputs)
+        h5.attrs["summary"] = json.dumps(result.summary())
+        h5.attrs["versions"] = json.dumps(package_versions())
+        h5.attrs["git"] = git_revision()
+        h5.attrs["converged"] = result.converged
+        h5.attrs["message"] = result.message
+        steps = h5.create_group("steps")
+        for field in fields(StepRecord):
+            values = [getattr(record, field.name) for record in result.records]
+            steps.create_dataset(field.name, data=np.array(values, dtype="S" if field.type == "str"
+                                                           else None))
+        for name, values in (("timings", result.timings), ("sizes", result.sizes)):
+            group = h5.create_group(name)
+            for key, value in values.items():
+                group.attrs[key] = value
+        grid_maps = h5.create_group("maps")
+        for name, values in maps.items():
+            grid_maps.create_dataset(name, data=values)
+    os.replace(temporary, path)
+

@@ -1,0 +1,153 @@
+"""One FEM run, read top to bottom like the paper's procedure:
+mesh the block -> set up solid, periodicity and contact -> preload to F_n -> slide the flat until
+every contact node slips -> report."""
+
+from __future__ import annotations
+
+import resource
+import sys
+import time
+from dataclasses import dataclass
+
+import numpy as np
+from mpi4py import MPI
+
+from geometry.mesh import Block, build_block
+from solver.contact import RigidFlat
+from solver.equilibrium import Equilibrium
+from solver.fields import FieldWriter
+from solver.options import FemCase
+from solver.periodic import PeriodicReduction, dof_node_grid_index
+from solver.results import FemResult
+from solver.solid import Solid
+from solver.stepping import LoadPath
+
+
+@dataclass(frozen=True, eq=False)
+class FemRun:
+    """A finished run and the objects behind it (for field output and tests).
+
+    Attributes
+    ----------
+    result : FemResult
+        Records and summary.
+    maps : dict
+        N x N surface maps ([i, j] at x = i h, y = j h): "contact_normal" (bool) and
+        "pressure_normal" [Pa] at the end of the preload and, when reached, "contact_sliding",
+        "slip_sliding" (bool), "pressure_sliding" and "shear_x_sliding" [Pa] at inception.
+    equilibrium : Equilibrium
+        Final state (solid, flat, reduced displacement).
+    block : Block
+        The mesh.
+    """
+
+    result: FemResult
+    maps: dict
+    equilibrium: Equilibrium
+    block: Block
+
+
+def peak_memory_gb() -> float:
+    """Peak resident memory of this process so far [GB] (Linux ru_maxrss is in KiB)."""
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2**20
+
+
+def stderr_progress(comm):
+    """A progress printer: one line to stderr, from rank 0 only."""
+    def progress(line: str) -> None:
+        if comm.rank == 0:
+            print(line, file=sys.stderr, flush=True)
+    return progress
+
+
+def surface_contact(solid: Solid, block: Block, case: FemCase) -> RigidFlat:
+    """The rigid flat acting on this rank's owned surface nodes (one per grid point: the
+    periodic images at i = N or j = N share their master's dofs and are left out).
+
+    Each node carries the projected area h^2, so the N^2 nodes cover A_n exactly.
+    """
+    V = solid.V
+    num_owned = V.dofmap.index_map.size_local
+    grid = dof_node_grid_index(V, block)[:num_owned]
+    n = block.n
+    on_surface = np.flatnonzero((grid[:, 2] == block.num_layers) & (grid[:, 0] < n)
+                                & (grid[:, 1] < n))
+    heights = V.tabulate_dof_coordinates()[on_surface, 2]
+    material, spacing = case.material, block.spacing
+    return RigidFlat(
+        block.mesh.comm, on_surface, grid[on_surface, :2], n, heights, spacing**2,
+        penalty=case.solver.penalty * material.E_star / spacing,
+        shear_strength=material.tau_c,
+    )
+
+
+def run(case: FemCase, comm: MPI.Comm = MPI.COMM_WORLD, progress=None,
+        xdmf_directory=None) -> FemRun:
+    """Preload and (unless normal-only) slide to inception.
+
+    Parameters
+    ----------
+    case : FemCase
+        What to compute.
+    comm : mpi4py.MPI.Comm
+        Communicator.
+    progress : callable, optional
+        Receives one text line per step; default: stderr on rank 0.
+    xdmf_directory : str or pathlib.Path, optional
+        Write fields (end of preload, inception) to ``fields.xdmf`` there.
+
+    Returns
+    -------
+    FemRun
+    """
+    progress = progress or stderr_progress(comm)
+    started = time.perf_counter()
+    surface = case.surface
+    block = build_block(surface.heights, surface.spacing, case.mesh, comm)
+    solid = Solid(block.mesh, case.material, case.solver.elastic, case.solver.integration)
+    reduction = PeriodicReduction(solid.V, block)
+    flat = surface_contact(solid, block, case)
+    equilibrium = Equilibrium(solid, reduction, flat, case.solver, block.spacing)
+    sizes = {
+        "cells": block.mesh.topology.index_map(3).size_global,
+        "layers": block.num_layers,
+        "depth_m": block.depth,
+        "reduced_dofs": 3 * reduction.num_reduced_global,
+        "linear_solver": equilibrium.linear_solver.method,
+        "ranks": comm.size,
+    }
+    progress(f"FEM {surface.name or 'surface'}: N={block.n}, {sizes['cells']} hexahedra in "
+             f"{block.num_layers} layers, {sizes['reduced_dofs']} dofs, "
+             f"{sizes['linear_solver']} solver, {comm.size} rank(s)")
+    set_up = time.perf_counter()
+
+    fields = FieldWriter(xdmf_directory, block, solid, flat) if xdmf_directory else None
+    path = LoadPath(equilibrium, case, block.depth, progress)
+    outcome = path.preload()
+    maps = {}
+    if path.contact is not None:
+        maps["contact_normal"] = flat.gather_grid(path.contact.in_contact)
+        maps["pressure_normal"] = flat.gather_grid(path.contact.pressure)
+        if fields:
+            fields.write(0.0, path.contact)
+    preloaded = time.perf_counter()
+    if outcome.converged and not case.loading.normal_only:
+        normal_records = len(path.records)
+        outcome = path.slide()
+        if len(path.records) > normal_records:
+            maps["contact_sliding"] = flat.gather_grid(path.contact.in_contact)
+            maps["slip_sliding"] = flat.gather_grid(path.contact.slipping)
+            maps["pressure_sliding"] = flat.gather_grid(path.contact.pressure)
+            maps["shear_x_sliding"] = flat.gather_grid(path.contact.traction[:, 0])
+            if fields:
+                fields.write(1.0, path.contact)
+    if fields:
+        fields.close()
+    finished = time.perf_counter()
+
+    timings = {"setup_s": set_up - started, "preload_s": preloaded - set_up,
+               "sliding_s": finished - preloaded, "total_s": finished - started}
+    sizes["peak_memory_gb"] = comm.allreduce(peak_memory_gb(), op=MPI.SUM)
+    result = FemResult(path.records, outcome.converged, outcome.message,
+                       case.loading.normal_only, timings, sizes)
+    return FemRun(result, maps, equilibrium, block)

@@ -1,0 +1,194 @@
+"""The paper's load path: normal preload to F_n, then tangential steps of the flat until every
+contact node slips (sliding inception), with adaptive step sizes.
+
+Step control: an increment grows by ``GROWTH`` after a step that converged in at most
+``EASY_ITERATIONS`` Newton iterations and is halved after a failed step (the state returns to
+the last converged step). A step smaller than ``MIN_FRACTION`` of the first one, or more than
+``max_steps`` attempts, ends the run unconverged.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from solver.contact import ContactResponse
+from solver.equilibrium import Equilibrium, NewtonReport
+from solver.options import FemCase
+from solver.results import StepRecord, count_patches
+
+GROWTH = 1.5
+EASY_ITERATIONS = 6
+MIN_FRACTION = 1e-3
+#: Largest preload increment as a fraction of F_n [-] (the plastic path is load-dependent;
+#: an elastic preload may take the whole load at once).
+MAX_PRELOAD_INCREMENT = 0.25
+#: Largest sliding increment as a fraction of tau_c H / G [-] (resolves the F_t(U) curve).
+MAX_SLIDE_INCREMENT = 0.25
+
+
+@dataclass(frozen=True)
+class Outcome:
+    """How a loading phase ended.
+
+    Attributes
+    ----------
+    converged : bool
+        The phase reached its goal (full preload; sliding inception).
+    message : str
+        Why not, if not converged.
+    """
+
+    converged: bool
+    message: str = ""
+
+
+class StepSize:
+    """Adaptive increment: grows after easy steps, halves after failures.
+
+    Parameters
+    ----------
+    first : float
+        First increment (in the phase's unit).
+    largest : float
+        Upper bound on the increment.
+    """
+
+    def __init__(self, first: float, largest: float):
+        self.value = min(first, largest)
+        self.smallest = MIN_FRACTION * self.value
+        self.largest = largest
+
+    def after(self, report: NewtonReport) -> None:
+        """Adapt after a converged step."""
+        if report.iterations <= EASY_ITERATIONS:
+            self.value = min(GROWTH * self.value, self.largest)
+
+    def cut(self) -> bool:
+        """Halve after a failed step; False if the increment became too small."""
+        self.value *= 0.5
+        return self.value >= self.smallest
+
+
+class LoadPath:
+    """Runs the preload and sliding phases on one :class:`Equilibrium` and records every step.
+
+    Parameters
+    ----------
+    equilibrium : Equilibrium
+        The discrete problem.
+    case : FemCase
+        Loads, material, options.
+    depth : float
+        Block depth H [m].
+    progress : callable
+        Called with one line of text per step (rank 0 prints it).
+    """
+
+    def __init__(self, equilibrium: Equilibrium, case: FemCase, depth: float, progress):
+        self.equilibrium = equilibrium
+        self.case = case
+        self.depth = depth
+        self.progress = progress
+        self.records: list[StepRecord] = []
+        self.attempts = 0
+        self.contact: ContactResponse | None = None  # at the last converged step
+        self._started = time.perf_counter()
+
+    @property
+    def flat_block_slide(self) -> float:
+        """tau_c H / G [m]: the slide at which a flat block of depth H would slip."""
+        material = self.case.material
+        return material.tau_c * self.depth / material.shear_modulus
+
+    def preload(self) -> Outcome:
+        """Frictionless normal loading to F_n in adaptive increments of the load."""
+        target = self.case.normal_force
+        options = self.case.solver
+        largest = 1.0 if options.elastic else MAX_PRELOAD_INCREMENT  # elastic: path-free
+        size = StepSize(1.0 / options.normal_increments, largest)
+        fraction = 0.0
+        while fraction < 1.0:
+            trial = min(1.0, fraction + size.value)
+            if fraction == 0.0:
+                self.equilibrium.place_flat(trial * target)
+            report = self._attempt(trial * target, 0.0, friction=False)
+            if report is None:
+                return Outcome(False, f"step limit reached during preload at F_n = {fraction:.4g}"
+                                      " x target")
+            if not report.converged:
+                if not size.cut():
+                    return Outcome(False, f"preload did not converge beyond {fraction:.4g} x F_n "
+                                          f"(Newton residual {report.residual:.2e} F_n)")
+                continue
+            fraction = trial
+            self._accept("normal", report, 0.0)
+            size.after(report)
+        return Outcome(True)
+
+    def slide(self) -> Outcome:
+        """Tangential steps of the flat at constant F_n until every contact node slips."""
+        target = self.case.normal_force
+        scale = self.flat_block_slide
+        size = StepSize(self.case.solver.first_slide * scale, MAX_SLIDE_INCREMENT * scale)
+        slide = 0.0
+        while True:
+            trial = slide + size.value
+            report = self._attempt(target, trial, friction=True)
+            if report is None:
+                return Outcome(False, f"step limit reached while sliding at u_x = {slide:.4g} m")
+            if not report.converged:
+                if not size.cut():
+                    return Outcome(False, f"tangential step did not converge at u_x = {slide:.4g}"
+                                          f" m (Newton residual {report.residual:.2e} F_n)")
+                continue
+            slide = trial
+            record = self._accept("tangential", report, slide)
+            if record.slipping_nodes == record.contact_nodes > 0:
+                return Outcome(True)
+            if slide > self.case.solver.max_slide * scale:
+                return Outcome(False, f"no sliding inception up to u_x = {slide:.4g} m "
+                                      f"({record.slipping_nodes} of {record.contact_nodes} "
+                                      "contact nodes slip)")
+            size.after(report)
+
+    def _attempt(self, normal_force: float, slide: float, friction: bool) -> NewtonReport | None:
+        """One Newton solve; restores the committed state if it fails. None past the step
+        limit."""
+        self.attempts += 1
+        if self.attempts > self.case.solver.max_steps:
+            return None
+        report = self.equilibrium.solve(normal_force, slide, friction)
+        if not report.converged:
+            self.equilibrium.restore()
+            self.progress(f"  step cut (Newton {report.iterations} its, residual "
+                          f"{report.residual:.2e} F_n)")
+        return report
+
+    def _accept(self, phase: str, report: NewtonReport, slide: float) -> StepRecord:
+        """Commit a converged step and record it."""
+        equilibrium = self.equilibrium
+        equilibrium.commit(report.contact)
+        self.contact = report.contact
+        flat = equilibrium.flat
+        contact_grid = flat.gather_grid(report.contact.in_contact)
+        record = StepRecord(
+            phase=phase,
+            normal_force=flat.normal_force(report.contact),
+            tangential_force=flat.tangential_force(report.contact),
+            slide=slide,
+            flat_height=equilibrium.flat_height,
+            area_ratio=float(np.count_nonzero(contact_grid)) / contact_grid.size,
+            contact_nodes=int(np.count_nonzero(contact_grid)),
+            contact_patches=count_patches(contact_grid),
+            slipping_nodes=flat.count(report.contact.slipping),
+            plastic_volume_fraction=equilibrium.solid.plastic_volume_fraction(),
+            newton_iterations=report.iterations,
+            krylov_iterations=report.krylov_iterations,
+            wall_s=time.perf_counter() - self._started,
+        )
+        self.records.append(record)
+        self.progress(record.summary())
+        return record

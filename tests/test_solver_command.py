@@ -1,0 +1,115 @@
+"""``python -m solver.command``: JSON keys, HDF5 contents, case files, bad inputs."""
+
+import json
+
+import numpy as np
+import pytest
+
+pytest.importorskip("dolfinx")
+
+import h5py  # noqa: E402
+
+from geometry.errors import InputError  # noqa: E402
+from geometry.generate import builtin_surface  # noqa: E402
+from solver.command import main, surface_on_fem_grid  # noqa: E402
+from solver.options import Loading, SolverOptions  # noqa: E402
+from solver.results import count_patches  # noqa: E402
+
+JSON_KEYS = {"mu_s", "Ft_max", "Fn", "area_ratio_normal", "area_ratio_sliding",
+             "junction_growth", "contact_nodes", "contact_patches", "steps", "newton_iterations",
+             "wall_s", "converged", "ranks"}
+
+
+@pytest.fixture
+def rough_file(tmp_path):
+    path = tmp_path / "rough.npy"
+    np.save(path, np.random.default_rng(3).normal(0.0, 0.1e-6, (8, 8)))
+    return path
+
+
+@pytest.mark.fem
+def test_normal_only_json_and_hdf5(rough_file, tmp_path, capsys):
+    output, fields = tmp_path / "run.h5", tmp_path / "fields"
+    code = main([str(rough_file), "--size", "7um", "--load", "0.3", "--normal-only", "--json",
+                 "--output", str(output), "--elastic", "--xdmf", str(fields)])
+    assert code == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert JSON_KEYS <= summary.keys()
+    assert summary["mu_s"] is None and summary["converged"] is True
+    assert summary["Fn"] == pytest.approx(0.3 * 1e9 * (8e-6) ** 2, rel=1e-6)
+    assert 0 < summary["area_ratio_normal"] < 1
+    with h5py.File(output) as h5:
+        assert json.loads(h5.attrs["summary"]) == summary
+        inputs = json.loads(h5.attrs["inputs"])
+        assert inputs["loading"]["load_star"] == 0.3 and inputs["solver"]["elastic"] is True
+        assert "dolfinx" in json.loads(h5.attrs["versions"])
+        assert len(h5["steps/normal_force"]) == summary["steps"]
+        assert h5["maps/contact_normal"].shape == (8, 8)
+    xdmf = (fields / "fields.xdmf").read_text()
+    for name in ("displacement", "von_mises", "equivalent_plastic_strain", "contact_pressure",
+                 "shear_traction", "contact_state"):
+        assert f'Name="{name}"' in xdmf
+
+
+@pytest.mark.fem
+def test_case_file_and_unconverged_run(rough_file, tmp_path, capsys):
+    config = tmp_path / "case.toml"
+    config.write_text("load = 0.3\n[solver]\nmax_steps = 2\n")
+    output = tmp_path / "partial.h5"
+    code = main([str(rough_file), "--size", "7um", "--config", str(config), "--output",
+                 str(output)])
+    assert code != 0
+    assert "did not converge" in capsys.readouterr().err
+    with h5py.File(output) as h5:  # partial results kept, labelled unconverged
+        assert not h5.attrs["converged"]
+        assert json.loads(h5.attrs["summary"])["mu_s"] is None
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["--load", "-1"], "load"),
+    ([], "normal load is required"),
+    (["--load", "0.3", "--n", "2"], ">= 4"),
+])
+def test_bad_command_lines(rough_file, argv, message, capsys):
+    assert main([str(rough_file), "--size", "7um", *argv]) != 0
+    assert message in capsys.readouterr().err
+
+
+def test_unknown_case_file_keys(rough_file, tmp_path, capsys):
+    config = tmp_path / "case.toml"
+    config.write_text("load = 0.3\n[solver]\npenalti = 3\n")
+    assert main([str(rough_file), "--size", "7um", "--config", str(config)]) != 0
+    assert "solver.penalti" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("options", [{"integration": "reduced"}, {"linear_solver": "lu"},
+                                     {"penalty": 0.0}, {"max_iterations": 0}])
+def test_bad_solver_options(options):
+    with pytest.raises(InputError):
+        SolverOptions(**options)
+
+
+def test_bad_loads():
+    for load in (0.0, -0.1, float("nan")):
+        with pytest.raises(InputError):
+            Loading(load)
+
+
+def test_fem_grid_coarsens_keeps_and_refines():
+    surface = builtin_surface("G5")
+    assert surface_on_fem_grid(surface, None) is surface
+    coarse = surface_on_fem_grid(surface, 32)
+    assert coarse.n == 32 and coarse.scan_length == pytest.approx(surface.scan_length)
+    fine = surface_on_fem_grid(surface, 256)
+    assert fine.n == 256 and fine.period == pytest.approx(surface.period)
+
+
+def test_patches_join_across_the_periodic_boundary():
+    grid = np.zeros((6, 6), bool)
+    grid[0, 2] = grid[5, 2] = True  # neighbours through x = L <-> 0
+    grid[3, 0] = grid[3, 5] = True  # neighbours through y = L <-> 0
+    grid[2, 3] = True  # isolated
+    grid[4, 4] = True  # diagonal to nothing: isolated
+    assert count_patches(grid) == 4
+    assert count_patches(np.ones((5, 5), bool)) == 1
+    assert count_patches(np.zeros((5, 5), bool)) == 0

@@ -1,0 +1,78 @@
+"""Two ranks reproduce the serial run (run under ``mpirun -n 2 python -m pytest -m mpi``)."""
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+pytest.importorskip("dolfinx")
+
+from mpi4py import MPI  # noqa: E402
+
+pytestmark = [pytest.mark.mpi, pytest.mark.fem]
+
+ROOT = Path(__file__).resolve().parent.parent
+
+# A small rough case: 8 x 8 Gaussian heights (rms 0.1 um at 1 um spacing), F* = 0.3.
+CASE = """
+import numpy as np
+from geometry.surface import Surface
+from solver.options import FemCase, Loading, SolverOptions
+
+heights = np.random.default_rng(7).normal(0.0, 0.1e-6, (8, 8))
+case = FemCase(Surface(heights, 1e-6, "mpi"), Loading(0.3),
+               solver=SolverOptions(linear_solver="direct", residual_tolerance=1e-10))
+"""
+
+SERIAL = CASE + """
+import json
+from mpi4py import MPI
+from solver.run import run
+records = run(case, MPI.COMM_SELF, progress=lambda line: None).result.records
+print(json.dumps([[r.phase, r.slide, r.tangential_force, r.normal_force, r.contact_nodes]
+                  for r in records]))
+"""
+
+
+def serial_environment() -> dict:
+    """This environment without the MPI launcher's variables: the child runs as a singleton."""
+    launcher = ("OMPI_", "PMIX_", "PMI_", "OPAL_", "HYDRA_")
+    env = {key: value for key, value in os.environ.items() if not key.startswith(launcher)}
+    env.update(OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1")
+    return env
+
+
+def curve(records):
+    return [[r.phase, r.slide, r.tangential_force, r.normal_force, r.contact_nodes]
+            for r in records]
+
+
+def test_two_ranks_equal_serial():
+    comm = MPI.COMM_WORLD
+    assert comm.size == 2, "run under mpirun -n 2"
+    namespace = {}
+    exec(CASE, namespace)
+    from solver.run import run
+
+    parallel = curve(run(namespace["case"], comm, progress=lambda line: None).result.records)
+    serial = None
+    if comm.rank == 0:
+        output = subprocess.run([sys.executable, "-c", SERIAL], cwd=ROOT, capture_output=True,
+                                text=True, check=True, env=serial_environment()).stdout
+        serial = json.loads(output.strip().splitlines()[-1])
+    serial = comm.bcast(serial, root=0)
+
+    assert len(parallel) == len(serial), (len(parallel), len(serial))
+    assert [r[0] for r in parallel] == [r[0] for r in serial]
+    assert [r[4] for r in parallel] == [r[4] for r in serial]
+    values = np.array([r[1:4] for r in parallel])
+    expected = np.array([r[1:4] for r in serial])
+    np.testing.assert_allclose(values[:, 0], expected[:, 0], rtol=1e-12)  # same u_x steps
+    scale = np.abs(expected[:, 1]).max()
+    np.testing.assert_allclose(values[:, 1], expected[:, 1], rtol=0, atol=1e-6 * scale)
+    np.testing.assert_allclose(values[:, 2], expected[:, 2], rtol=1e-6)
+    assert serial[-1][0] == "tangential"
