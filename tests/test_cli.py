@@ -90,3 +90,14 @@ def test_console_script_exit_code_without_traceback():
     assert done.returncode == EXIT_INPUT_ERROR
     assert "Traceback" not in done.stderr
     assert done.stderr.count("\n") == 1
+
+
+def test_theory_commands_import_no_fem_stack():
+    """multiscale/ and the surface half of geometry/ work without dolfinx, gmsh or MPI."""
+    code = (
+        "import sys; from scripts.cli import main; main(['multiscale', 'G1', '--load', '0.1']); "
+        "print(sorted(m for m in sys.modules if m.split('.')[0] in "
+        "('dolfinx', 'gmsh', 'petsc4py', 'mpi4py', 'ufl')))"
+    )
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert done.stdout.strip().splitlines()[-1] == "[]"
