@@ -1,11 +1,18 @@
-"""Linear solves of the reduced tangent system, chosen by size.
+"""Linear solves of the reduced tangent system, with the preconditioner reused across Newton
+iterations and load steps.
 
-* direct: MUMPS Cholesky (the reduced tangent is symmetric: J2 consistent tangent, penalty
-  contact, and a friction slip tangent that is symmetric because the cap tau_c does not depend on
-  the pressure). One factorisation serves both solves of the bordered system.
-* iterative: CG + GAMG with the rigid-body near-nullspace. The GAMG hierarchy is built at the
-  first Newton iteration of a step and reused while the Krylov iteration count stays within
-  ``REBUILD_FACTOR`` times the count of the freshly built preconditioner.
+The reduced tangent is symmetric positive definite (J2 consistent tangent with hardening,
+penalty contact, and a friction slip tangent that is symmetric because the cap tau_c does not
+depend on the pressure), so both methods are preconditioned CG:
+
+* direct: the preconditioner is a MUMPS Cholesky factorisation. While it is fresh CG converges
+  in one iteration; as the tangent drifts (plastic cells, contact set) the old factors keep
+  preconditioning it, and they are refactorised only when CG needs more than
+  ``MAX_REUSED_ITERATIONS``.
+* iterative: CG + GAMG with the rigid-body near-nullspace; the hierarchy is rebuilt when the
+  iterations grow past ``REBUILD_FACTOR`` times the count of the freshly built preconditioner.
+
+Either way a solve that fails with a reused preconditioner is retried once with a fresh one.
 """
 
 from __future__ import annotations
@@ -19,6 +26,8 @@ class LinearSolveError(RuntimeError):
 
 #: Rebuild the reused GAMG hierarchy when the iterations grow past this factor [-].
 REBUILD_FACTOR = 1.5
+#: Refactorise the reused Cholesky factors when CG needs more iterations than this [-].
+MAX_REUSED_ITERATIONS = 10
 
 
 class LinearSolver:
@@ -29,50 +38,67 @@ class LinearSolver:
     comm : mpi4py.MPI.Comm
         Communicator.
     method : {"direct", "iterative"}
-        MUMPS Cholesky or CG + GAMG.
+        CG preconditioned by MUMPS Cholesky factors or by GAMG.
     relative_tolerance : float
-        Krylov relative residual tolerance [-] (iterative only).
+        Krylov relative residual tolerance [-].
     """
 
     def __init__(self, comm, method: str, relative_tolerance: float = 1e-8):
         self.method = method
+        self.relative_tolerance = relative_tolerance
         self.ksp = PETSc.KSP().create(comm)
+        self.ksp.setType("cg")
+        self.ksp.setTolerances(rtol=relative_tolerance, atol=0.0, max_it=1000)
         pc = self.ksp.getPC()
+        prefix = f"roughfriction_{method}_"
         if method == "direct":
-            self.ksp.setType("preonly")
             pc.setType("cholesky")
             pc.setFactorSolverType("mumps")
         elif method == "iterative":
-            self.ksp.setType("cg")
-            self.ksp.setTolerances(rtol=relative_tolerance, atol=0.0, max_it=1000)
             pc.setType("gamg")
-            options = PETSc.Options()
-            prefix = "roughfriction_gamg_"
-            options[f"{prefix}pc_gamg_reuse_interpolation"] = True  # keep the aggregates
-            self.ksp.setOptionsPrefix(prefix)
-            self.ksp.setFromOptions()
-            self.ksp.setNormType(PETSc.KSP.NormType.UNPRECONDITIONED)
+            PETSc.Options()[f"{prefix}pc_gamg_reuse_interpolation"] = True  # keep aggregates
         else:
             raise ValueError(f"unknown linear solver {method!r}")
-        self._fresh_iterations = None
+        self.ksp.setOptionsPrefix(prefix)
+        self.ksp.setFromOptions()
+        self.ksp.setNormType(PETSc.KSP.NormType.UNPRECONDITIONED)
+        self._fresh_iterations = None  # iterations of the last solve with a fresh preconditioner
+        self._rebuild = True
         self.last_iterations = 0
+        self.rebuilds = 0
 
-    def set_operator(self, matrix: PETSc.Mat, new_step: bool) -> None:
-        """Use ``matrix`` for the next solves; decide whether to rebuild the preconditioner."""
+    def set_operator(self, matrix: PETSc.Mat) -> None:
+        """Use ``matrix`` (new values, same pattern) for the next solves."""
         self.ksp.setOperators(matrix)
-        rebuild = (self.method == "direct" or new_step or self._fresh_iterations is None
-                   or self.last_iterations > REBUILD_FACTOR * self._fresh_iterations)
-        self.ksp.getPC().setReusePreconditioner(not rebuild)
-        self._rebuilt = rebuild
+        if self._fresh_iterations is not None:
+            limit = (MAX_REUSED_ITERATIONS if self.method == "direct"
+                     else REBUILD_FACTOR * self._fresh_iterations)
+            self._rebuild = self._rebuild or self.last_iterations > limit
 
-    def solve(self, rhs: PETSc.Vec, solution: PETSc.Vec) -> int:
-        """Solve into ``solution``; return the Krylov iterations (1 for a direct solve)."""
-        self.ksp.solve(rhs, solution)
+    def solve(self, rhs: PETSc.Vec, solution: PETSc.Vec, warm_start: bool = False,
+              relative_tolerance: float | None = None) -> int:
+        """Solve into ``solution`` (starting from its content if ``warm_start``, else from 0) to
+        ``relative_tolerance`` (default: the solver's); return the Krylov iterations."""
+        fresh = self._rebuild
+        self.ksp.setTolerances(rtol=relative_tolerance or self.relative_tolerance)
+        self.ksp.setInitialGuessNonzero(warm_start)
+        self._apply(rhs, solution, fresh)
+        if self.ksp.getConvergedReason() < 0 and not fresh:
+            fresh = True
+            self.ksp.setInitialGuessNonzero(False)
+            self._apply(rhs, solution, fresh)
         if self.ksp.getConvergedReason() < 0:
             raise LinearSolveError(f"linear solver failed ({self.method}, reason "
-                             f"{self.ksp.getConvergedReason()})")
+                                   f"{self.ksp.getConvergedReason()})")
         self.last_iterations = max(self.ksp.getIterationNumber(), 1)
-        if self._rebuilt:
+        if fresh:
             self._fresh_iterations = self.last_iterations
-            self._rebuilt = False
         return self.last_iterations
+
+    def _apply(self, rhs: PETSc.Vec, solution: PETSc.Vec, fresh: bool) -> None:
+        """One KSP solve, rebuilding the preconditioner if ``fresh``."""
+        self.ksp.getPC().setReusePreconditioner(not fresh)
+        if fresh:
+            self.rebuilds += 1
+            self._rebuild = False
+        self.ksp.solve(rhs, solution)

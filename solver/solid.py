@@ -9,8 +9,9 @@ integrates the pressure at 2 x 2 x 2 points too (it locks; kept to show that it 
 Weak forms (u the displacement, v a test function, s the stress deviator from the return map)::
 
     R(u; v) = (s, eps(v))_8 + (K tr eps(u), tr eps(v))_q
-    a(du, v) = (2 G beta dev eps(du) - 2 G gamma (n : eps(du)) n, eps(v))_8
-               + (K tr eps(du), tr eps(v))_q
+    a(du, v) = (2 G dev eps(du), eps(v))_8 + (K tr eps(du), tr eps(v))_q     (elastic: once)
+             + (2 G (beta - 1) dev eps(du) - 2 G gamma (n : eps(du)) n, eps(v))_8
+                                                           (plastic correction: yielding cells)
 
 with q = 1 (selective) or 8 (full) points.
 """
@@ -21,6 +22,7 @@ import basix
 import numpy as np
 import ufl
 from dolfinx import fem
+from dolfinx import mesh as dolfinx_mesh
 from mpi4py import MPI
 
 from solver.material import Material
@@ -102,8 +104,6 @@ class Solid:
         du = ufl.TrialFunction(self.V)
         shear, bulk = material.shear_modulus, material.bulk_modulus
         s, n = self.stress_deviator, self.flow_direction
-        tangent_deviator = (2.0 * shear * self.beta * ufl.dev(strain(du))
-                            - 2.0 * shear * self.gamma * ufl.inner(n, strain(du)) * n)
         # One form per quadrature rule: FFCx 0.5 assembles a form whose integrals use different
         # quadrature degrees wrongly (measured: 37 % off on hexahedra), so the deviatoric
         # (2 x 2 x 2) and volumetric (1 point) parts are separate forms, assembled one after the
@@ -112,10 +112,32 @@ class Solid:
             fem.form(ufl.inner(s, strain(v)) * dx_dev),
             fem.form(bulk * ufl.tr(strain(self.displacement)) * ufl.tr(strain(v)) * dx_vol),
         )
-        self.tangent_forms = (
-            fem.form(ufl.inner(tangent_deviator, strain(v)) * dx_dev),
+        # Tangent = elastic part (assembled once by the caller) + the plastic correction on the
+        # cells with a yielding point, compiled once and re-bound to those cells at each update
+        # (binding is ~1 ms; assembling the full tangent at every iteration cost more than the
+        # linear solve).
+        self.elastic_tangent_forms = (
+            fem.form(2.0 * shear * ufl.inner(ufl.dev(strain(du)), strain(v)) * dx_dev),
             fem.form(bulk * ufl.tr(strain(du)) * ufl.tr(strain(v)) * dx_vol),
         )
+        self._mesh = mesh
+        self._correction = (2.0 * shear * (self.beta - 1.0) * ufl.dev(strain(du))
+                            - 2.0 * shear * self.gamma * ufl.inner(n, strain(du)) * n)
+        self._test_strain = strain(v)
+        self._dev_metadata = dx_dev.metadata()
+
+    def plastic_tangent_form(self):
+        """The plastic correction of the consistent tangent,
+        (2 G (beta - 1) dev eps(du) - 2 G gamma (n : eps(du)) n, eps(v)), over the owned cells with
+        a yielding Gauss point in the last stress update; None if there is none on any rank."""
+        yielding = self.response.yielding.reshape(self.num_cells, self.num_points).any(axis=1)
+        cells = np.flatnonzero(yielding).astype(np.int32)
+        if self._mesh.comm.allreduce(len(cells), op=MPI.SUM) == 0:
+            return None
+        tags = dolfinx_mesh.meshtags(self._mesh, 3, cells, np.ones(len(cells), dtype=np.int32))
+        dx_plastic = ufl.Measure("dx", domain=self._mesh, subdomain_data=tags, subdomain_id=1,
+                                 metadata=self._dev_metadata)
+        return fem.form(ufl.inner(self._correction, self._test_strain) * dx_plastic)
 
     def update_stress(self) -> J2Response:
         """Return-map the current displacement from the committed state; fill the quadrature

@@ -28,8 +28,9 @@ def assemble(solid):
     for form in solid.residual_forms:
         fem_petsc.assemble_vector(residual, form)
     residual.ghostUpdate(PETSc.InsertMode.ADD_VALUES, PETSc.ScatterMode.REVERSE)
-    tangent = fem_petsc.create_matrix(solid.tangent_forms[0])
-    for form in solid.tangent_forms:
+    tangent = fem_petsc.create_matrix(solid.elastic_tangent_forms[0])
+    plastic = solid.plastic_tangent_form()
+    for form in solid.elastic_tangent_forms + ((plastic,) if plastic else ()):
         fem_petsc.assemble_matrix(tangent, form)
     tangent.assemble()
     return residual, tangent
@@ -49,6 +50,40 @@ def test_elastic_residual_is_the_tangent_times_the_displacement(block, integrati
     tangent.mult(solid.displacement.vector, product)
     product.axpy(-1.0, residual)
     assert product.norm() <= 1e-12 * residual.norm()
+
+
+def test_plastic_tangent_is_the_derivative_of_the_residual(block):
+    """Elastic tangent (assembled once) + plastic correction (yielding cells only) = dR/du: a
+    central difference of R along a random direction matches K w where part of the block has
+    yielded. A wrong correction, or one bound to the wrong cells, fails this."""
+    material = Material()
+    solid = Solid(block.mesh, material)
+    x = solid.V.tabulate_dof_coordinates()
+    z = x[:, 2] / block.depth  # 0 at the mean plane, -1 at the bottom
+    u = solid.displacement.x.array.reshape(-1, 3)
+    u[:, 0] = 4.0 * material.Sy / material.shear_modulus * block.depth * z**2  # shear ~ |z|
+    base = solid.displacement.x.array.copy()
+    direction = np.random.default_rng(3).normal(0.0, 1.0, base.shape)
+    step = 1e-7 * np.abs(base).max()
+
+    def residual_at(values):
+        solid.displacement.x.array[:] = values
+        solid.update_stress()
+        return assemble(solid)
+
+    residual_plus, _ = residual_at(base + step * direction)
+    residual_minus, _ = residual_at(base - step * direction)
+    _, tangent = residual_at(base)
+    yielding = solid.response.yielding.mean()
+    assert 0.1 < yielding < 0.9, f"test needs a partly plastic block, yielding {yielding:.2f}"
+    product = residual_plus.duplicate()
+    solid.displacement.x.array[:] = direction
+    tangent.mult(solid.displacement.vector, product)
+    difference = residual_plus.copy()
+    difference.axpy(-1.0, residual_minus)
+    difference.scale(1.0 / (2.0 * step))
+    difference.axpy(-1.0, product)
+    assert difference.norm() <= 1e-5 * product.norm()
 
 
 def test_periodic_images_share_displacements_and_the_bottom_is_fixed(block):
