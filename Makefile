@@ -52,16 +52,27 @@ lint: setup
 
 # --- figures ----------------------------------------------------------------------------
 SURFACE_FIGURES := fig3 fig4 fig5 fig6
-THEORY_FIGURES := fig12 fig13 fig14 fig17 fig18 fig19
-.PHONY: $(SURFACE_FIGURES) $(THEORY_FIGURES)
+THEORY_FIGURES := fig12 fig13 fig17 fig18 fig19
+# FEM figures (fig14: theory with FEM points), on N x N surface grids under mpirun. Runs are kept
+# in results/runs/ (the run cache): a figure never recomputes a finished run, and a killed
+# `make figures` resumes where it stopped. Sliding figures come first so that the normal-only
+# figures (fig20, fig14, fig8-fig10) mostly read the preloads of their sliding runs.
+N ?= 32
+FEM_FIGURES := fig22 fig23 fig24 fig25 fig26 fig27 fig28 fig21 fig29 fig15 fig20 fig14 fig8 \
+	fig9 fig10
+.PHONY: $(SURFACE_FIGURES) $(THEORY_FIGURES) $(FEM_FIGURES)
 $(SURFACE_FIGURES) $(THEORY_FIGURES): setup
 	@$(VENV)/bin/roughfriction figure $@
 
-figures: $(SURFACE_FIGURES) $(THEORY_FIGURES)
+$(FEM_FIGURES): setup
+	@$(MPIRUN) $(VENV)/bin/roughfriction figure $@ --n $(N)
+
+figures: $(SURFACE_FIGURES) $(THEORY_FIGURES) $(FEM_FIGURES)
 
 # Copy the figures the README shows into docs/figures/ (committed; figures/ is not).
 gallery: figures
-	@cp $(addprefix figures/,$(addsuffix .png,$(SURFACE_FIGURES) $(THEORY_FIGURES))) docs/figures/
+	@cp $(addprefix figures/,$(addsuffix .png,$(SURFACE_FIGURES) $(THEORY_FIGURES) \
+	  $(FEM_FIGURES))) docs/figures/
 
 # --- benchmarks -------------------------------------------------------------------------
 bench-multiscale: setup

@@ -1,4 +1,7 @@
-"""The surfaces and loads of the paper's comparison figures, declared once."""
+"""The surfaces and loads of the paper's comparison figures, declared once, and the FEM cases
+built from them."""
+
+import os
 
 import numpy as np
 
@@ -10,3 +13,49 @@ PSI_SWEEP_LOADS = (0.155, 0.62, 0.93, 1.86)
 LOAD_SWEEP_SURFACES = ("2L", "8L", "G5")
 #: Loads F* of Figs. 26–28: ten values spanning the paper's range, log-spaced.
 LOAD_SWEEP = tuple(float(f"{v:.3g}") for v in np.geomspace(0.05, 2.0, 10))
+
+# --- FEM ------------------------------------------------------------------------------------
+# Every FEM run costs minutes, so the FEM loads are few and chosen to share runs between
+# figures: a normal-only case is answered by the sliding run of the same case when that is in
+# the run cache (``solver.cache``), so ``make figures`` builds the sliding figures first.
+
+#: FEM surface cells per side of the figures' runs (``--n`` or $ROUGHFRICTION_FEM_N override).
+DEFAULT_FEM_N = 32
+FEM_N_VARIABLE = "ROUGHFRICTION_FEM_N"
+#: FEM loads F* of Figs. 26–28 (sliding); they include Fig. 14's loads and three of Figs. 22–25.
+FEM_LOAD_SWEEP = (0.06, 0.155, 0.5, 0.62, 0.93, 1.86)
+#: Loads F* of Fig. 8 (8L contact maps, normal load only).
+CONTACT_MAP_LOADS = (0.06, 0.12)
+#: FEM loads F* of Figs. 9–10 (8L patches and nodes, normal load only).
+PATCH_LOADS = (0.06, 0.12, 0.155, 0.5, 0.93, 1.86)
+#: FEM loads F* of Fig. 20 (A_r/A_n of G1–G9, normal load only).
+AREA_LOADS = (0.06, *PSI_SWEEP_LOADS)
+#: Load F* of Figs. 21 and 29 (F_t/F_n during the tangential loading of G1–G9).
+CURVE_LOAD = 0.155
+#: Surface and load F* of Fig. 15 (junction growth; Fig. 17 shows the theory at this load).
+JUNCTION_SURFACE, JUNCTION_LOAD = "2L", 0.5
+
+
+def fem_resolution(n=None) -> int:
+    """Surface cells per side of the FEM runs [-]: ``n``, else $ROUGHFRICTION_FEM_N, else
+    :data:`DEFAULT_FEM_N`."""
+    from geometry.errors import InputError
+
+    value = n if n is not None else os.environ.get(FEM_N_VARIABLE, DEFAULT_FEM_N)
+    try:
+        value = int(value)
+    except ValueError:
+        raise InputError(f"FEM resolution must be an integer, got {value!r}") from None
+    if value < 4:
+        raise InputError(f"FEM resolution must be >= 4 surface cells per side, got {value}")
+    return value
+
+
+def fem_case(name: str, load: float, n: int, normal_only: bool = False):
+    """The FEM case of built-in surface ``name`` re-gridded to n x n, at F* = ``load`` [-],
+    with the default material, mesh and solver options."""
+    from geometry.generate import builtin_surface
+    from solver.command import surface_on_fem_grid
+    from solver.options import FemCase, Loading
+
+    return FemCase(surface_on_fem_grid(builtin_surface(name), n), Loading(load, normal_only))

@@ -29,15 +29,41 @@ def _finite_or_none(value):
     return value
 
 
+def _text(value) -> str:
+    return f"{value:.6g}" if isinstance(value, float) else str(value)
+
+
+def _section_lines(section: dict) -> list[str]:
+    """A nested record as text: equal-length lists as a table with a header row; anything else
+    as aligned ``key  value`` lines (a dict value as ``k=v`` pairs)."""
+    if not section:
+        return ["(none)"]
+    if all(isinstance(value, list) for value in section.values()):
+        columns = {key: [_text(value) for value in values] for key, values in section.items()}
+        widths = [max(len(key), *map(len, column)) for key, column in columns.items()]
+        rows = [list(columns), *zip(*columns.values(), strict=True)]
+        return ["  ".join(f"{cell:>{width}}" for cell, width in zip(row, widths, strict=True))
+                for row in rows]
+    width = max(len(key) for key in section)
+    return [f"{key:<{width}}  " + (" ".join(f"{k}={_text(v)}" for k, v in value.items())
+                                   if isinstance(value, dict) else _text(value))
+            for key, value in section.items()]
+
+
 def emit(record: dict, as_json: bool) -> None:
-    """Print ``record`` as JSON or as an aligned key/value table."""
+    """Print ``record`` as JSON or as text: an aligned key/value table of its scalars, then
+    each dict-valued entry as a titled section (see :func:`_section_lines`)."""
     if as_json:
         print(json.dumps(_finite_or_none(record), indent=None))
         return
-    width = max(len(k) for k in record)
+    scalars = {key: value for key, value in record.items() if not isinstance(value, dict)}
+    for line in _section_lines(scalars) if scalars else []:
+        print(line)
     for key, value in record.items():
-        text = f"{value:.6g}" if isinstance(value, float) else str(value)
-        print(f"{key:<{width}}  {text}")
+        if isinstance(value, dict):
+            print(f"\n{key}")
+            for line in _section_lines(value):
+                print(f"  {line}")
 
 
 def positive_float(text: str) -> float:
@@ -123,6 +149,16 @@ def cmd_fem(args) -> dict:
     return run_fem(args)
 
 
+def cmd_post(args) -> dict:
+    from solver.post import read_run, run_report, write_map_csvs
+
+    run = read_run(args.path)
+    record = run_report(run)
+    if args.maps:
+        record["maps_written"] = " ".join(str(path) for path in write_map_csvs(run, args.maps))
+    return record
+
+
 def cmd_figure(args) -> dict:
     from scripts.figures import FIGURES, make_figure
 
@@ -132,7 +168,7 @@ def cmd_figure(args) -> dict:
         names = [args.name]
     else:
         raise InputError(f"unknown figure {args.name!r}; known: all, {', '.join(FIGURES)}")
-    return {name: str(make_figure(name)) for name in names}
+    return {name: str(make_figure(name, n=args.n)) for name in names}
 
 
 def cmd_bench(args) -> dict:
@@ -190,8 +226,22 @@ def build_parser() -> argparse.ArgumentParser:
     add_fem_arguments(fem)
     fem.set_defaults(run=cmd_fem)
 
+    post = commands.add_parser(
+        "post", help="read a FEM results file (roughfriction fem --output, or results/runs/): "
+        "summary, steps, junction growth, contact maps")
+    post.add_argument("path", metavar="RUN", help="HDF5 results file")
+    post.add_argument("--maps", metavar="DIR",
+                      help="also write each surface map as DIR/<name>.csv (N x N, row i at "
+                      "x = i h, column j at y = j h; flags 0/1, Pa, m)")
+    post.add_argument("--json", action="store_true", help="one JSON object on stdout")
+    post.set_defaults(run=cmd_post)
+
     figure = commands.add_parser("figure", help="make one of the paper's figures (PNG + CSV)")
     figure.add_argument("name", help="figNN, or 'all'")
+    figure.add_argument("--n", type=int, metavar="N",
+                        help="FEM figures: surface cells per side of the runs (default "
+                        "$ROUGHFRICTION_FEM_N, else scripts.cases.DEFAULT_FEM_N); runs are kept "
+                        "in the run cache ($ROUGHFRICTION_RUNS, default results/runs)")
     figure.add_argument("--json", action="store_true", help="one JSON object on stdout")
     figure.set_defaults(run=cmd_figure)
 

@@ -1,6 +1,10 @@
 """Figure registry and output: each ``scripts/figNN.py`` declares what it needs and draws it.
 
-A figure module defines ``make() -> (matplotlib Figure, dict of equal-length columns)``;
+A theory figure module defines ``make() -> (matplotlib Figure, dict of equal-length columns)``.
+A FEM figure module also defines ``fem_cases(n) -> list of FemCase`` (the runs it needs on an
+n x n FEM grid) and draws with ``make(runs)``, ``runs`` being the runs' results files
+(:class:`solver.post.RunFile`) in the order of its cases; the runs come from the run cache
+(``solver.cache``, computed on every MPI rank when missing), and only rank 0 draws.
 ``make_figure`` writes ``figures/figNN.png`` and the data behind it, ``figures/figNN.csv``,
 each atomically (a killed run never leaves a half-written file under the final name).
 """
@@ -14,19 +18,24 @@ from pathlib import Path
 
 import numpy as np
 
-FIGURES = ("fig3", "fig4", "fig5", "fig6", "fig12", "fig13", "fig14", "fig17", "fig18", "fig19")
+#: Figures from the surfaces and the theory alone.
+THEORY_FIGURES = ("fig3", "fig4", "fig5", "fig6", "fig12", "fig13", "fig17", "fig18", "fig19")
+#: Figures that need FEM runs (fig14: theory with FEM points).
+FEM_FIGURES = ("fig8", "fig9", "fig10", "fig14", "fig15", "fig20", "fig21", "fig22", "fig23",
+               "fig24", "fig25", "fig26", "fig27", "fig28", "fig29")
+FIGURES = tuple(sorted(THEORY_FIGURES + FEM_FIGURES, key=lambda name: int(name[3:])))
 FIGURE_DIR = Path("figures")
 
 
-def new_axes(width: float = 5.0, height: float = 3.6):
-    """A figure with one axes, sized to read well at README width."""
+def new_axes(width: float = 5.0, height: float = 3.6, ncols: int = 1):
+    """A figure with one axes (or a row of ``ncols``), sized to read well at README width."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     plt.rcParams.update({"font.size": 10, "axes.grid": True, "grid.alpha": 0.3})
-    fig, ax = plt.subplots(figsize=(width, height), constrained_layout=True)
+    fig, ax = plt.subplots(1, ncols, figsize=(width, height), constrained_layout=True)
     return fig, ax
 
 
@@ -58,13 +67,49 @@ def write_table(path: Path, columns: dict[str, np.ndarray]) -> None:
     _atomic_write(path, lambda tmp: Path(tmp).write_text("\n".join(lines) + "\n"))
 
 
-def make_figure(name: str, directory: Path = FIGURE_DIR) -> Path:
-    """Draw figure ``name`` and write its PNG and CSV into ``directory``; return the PNG path."""
+def fem_runs(module, n: int | None = None, runs_directory=None) -> list | None:
+    """The results files of the FEM runs a figure module declares, from the run cache
+    (computing the missing ones on every rank); None on ranks other than 0.
+
+    Parameters
+    ----------
+    module : module
+        A FEM figure module (defines ``fem_cases(n)``).
+    n : int, optional
+        Surface cells per side (default :func:`scripts.cases.fem_resolution`).
+    runs_directory : str or pathlib.Path, optional
+        The run cache (default :func:`solver.cache.runs_directory`).
+    """
+    from mpi4py import MPI
+
+    from scripts.cases import fem_resolution
+    from solver.cache import cached_results
+    from solver.post import read_run
+
+    comm = MPI.COMM_WORLD
+    paths = cached_results(module.fem_cases(fem_resolution(n)), comm, directory=runs_directory)
+    return [read_run(path) for path in paths] if comm.rank == 0 else None
+
+
+def make_figure(name: str, directory: Path = FIGURE_DIR, n: int | None = None,
+                runs_directory=None) -> Path:
+    """Draw figure ``name`` and write its PNG and CSV into ``directory``; return the PNG path.
+
+    FEM figures use the FEM grid ``n`` and the run cache ``runs_directory`` (see
+    :func:`fem_runs`); under MPI only rank 0 draws and writes.
+    """
     import matplotlib.pyplot as plt
 
-    fig, columns = importlib.import_module(f"scripts.{name}").make()
-    png = directory / f"{name}.png"
+    module = importlib.import_module(f"scripts.{name}")
+    png = Path(directory) / f"{name}.png"
+    if hasattr(module, "fem_cases"):
+        runs = fem_runs(module, n, runs_directory)
+        if runs is None:
+            return png
+        fig, columns = module.make(runs)
+    else:
+        fig, columns = module.make()
     _atomic_write(png, lambda tmp: fig.savefig(tmp, dpi=110, format="png"))
     plt.close(fig)
-    write_table(directory / f"{name}.csv", columns)
+    write_table(Path(directory) / f"{name}.csv", columns)
     return png

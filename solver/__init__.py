@@ -11,6 +11,9 @@ Read in this order (the paper's procedure):
 * ``periodic``     u = P u_red (periodic sides, fixed bottom); ``linear`` MUMPS / CG + GAMG
 * ``results``      step records, summary, HDF5; ``fields`` XDMF on request
 * ``command``      the ``fem`` command line; ``benchmark`` G5 timings for several N
+* ``cache``        the run cache: each run once, keyed by its inputs and the physics sources
+* ``post``         reading a results file with h5py (``roughfriction post``, the figures)
 
-``material``, ``plasticity``, ``options``, ``results`` and ``command`` import without dolfinx.
+``material``, ``plasticity``, ``options``, ``results``, ``command``, ``cache`` and ``post``
+import without dolfinx.
 """

@@ -115,6 +115,32 @@ def default_output(case: FemCase) -> Path:
     return Path("results/fem") / f"{name}_F{case.loading.load_star:g}_N{case.surface.n}{suffix}.h5"
 
 
+def save_run(path: Path, case: FemCase, fem_run, comm) -> None:
+    """Write a run's results file (rank 0 writes, atomically; every rank waits for it).
+
+    The file holds the case's inputs, the records and summary, and the surface maps of the
+    run plus ``surface_heights``, the N x N heights of the FEM grid [m] (for the interference
+    and for drawing maps over the topography).
+
+    Parameters
+    ----------
+    path : pathlib.Path
+        Destination HDF5 file.
+    case : FemCase
+        The case that was run.
+    fem_run : solver.run.FemRun
+        Its outcome.
+    comm : mpi4py.MPI.Comm
+        The communicator the run used; call on every rank.
+    """
+    from solver.results import write_hdf5
+
+    if comm.rank == 0:
+        maps = {"surface_heights": case.surface.heights, **fem_run.maps}
+        write_hdf5(Path(path), case.inputs(), fem_run.result, maps)
+    comm.barrier()
+
+
 def run_fem(args) -> dict:
     """Run the FEM case named by the command line; return the JSON summary.
 
@@ -127,16 +153,13 @@ def run_fem(args) -> dict:
     from mpi4py import MPI
 
     from scripts.cli import surface_from_args
-    from solver.results import write_hdf5
     from solver.run import run
 
     comm = MPI.COMM_WORLD
     case = case_from_args(args, surface_from_args(args))
     outcome = run(case, comm, xdmf_directory=args.xdmf)
     output = Path(args.output) if args.output else default_output(case)
-    if comm.rank == 0:
-        write_hdf5(output, case.inputs(), outcome.result, outcome.maps)
-    comm.barrier()
+    save_run(output, case, outcome, comm)
     if not outcome.result.converged:
         raise InputError(f"FEM run did not converge: {outcome.result.message} "
                          f"(partial results in {output})")

@@ -7,7 +7,9 @@ from __future__ import annotations
 import resource
 import sys
 import time
-from dataclasses import dataclass
+from collections.abc import Sequence
+from dataclasses import dataclass, replace
+from pathlib import Path
 
 import numpy as np
 from mpi4py import MPI
@@ -16,7 +18,7 @@ from geometry.mesh import Block, build_block
 from solver.contact import RigidFlat
 from solver.equilibrium import Equilibrium
 from solver.fields import FieldWriter
-from solver.options import FemCase
+from solver.options import FemCase, Loading
 from solver.periodic import PeriodicReduction, dof_node_grid_index
 from solver.results import FemResult
 from solver.solid import Solid
@@ -151,3 +153,43 @@ def run(case: FemCase, comm: MPI.Comm = MPI.COMM_WORLD, progress=None,
     result = FemResult(path.records, outcome.converged, outcome.message,
                        case.loading.normal_only, timings, sizes)
     return FemRun(result, maps, equilibrium, block)
+
+
+def run_loads(case: FemCase, loads: Sequence[float], comm: MPI.Comm = MPI.COMM_WORLD,
+              progress=None, xdmf_directory=None, finished=None) -> list[FemRun]:
+    """The case at several normal loads: one run per load, in the order given.
+
+    Every run is ``case`` with its loading replaced by ``Loading(load, normal_only)``; the
+    result of each equals ``run`` of that case. (This is a plain loop; the normal loading path
+    is not yet shared between the loads.)
+
+    Parameters
+    ----------
+    case : FemCase
+        Surface, material, mesh, solver options and ``normal_only``; its load is ignored.
+    loads : sequence of float
+        Dimensionless normal loads F* [-].
+    comm : mpi4py.MPI.Comm
+        Communicator; every rank takes part in every run.
+    progress : callable, optional
+        Receives one text line per step; default: stderr on rank 0.
+    xdmf_directory : str or pathlib.Path, optional
+        Write the fields of the run at load F* to ``DIRECTORY/F<F*>/fields.xdmf``.
+    finished : callable, optional
+        Called on every rank as ``finished(index, fem_run)`` as soon as the run of
+        ``loads[index]`` is done (so that a caller can save it before the next one starts).
+
+    Returns
+    -------
+    list of FemRun
+        One per load, in the order of ``loads``.
+    """
+    runs = []
+    for index, load in enumerate(loads):
+        load_case = replace(case, loading=Loading(load, case.loading.normal_only))
+        fields = None if xdmf_directory is None else Path(xdmf_directory) / f"F{load:g}"
+        fem_run = run(load_case, comm, progress, fields)
+        if finished is not None:
+            finished(index, fem_run)
+        runs.append(fem_run)
+    return runs

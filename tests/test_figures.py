@@ -1,44 +1,54 @@
-"""Theory figures: each writes a PNG and the CSV behind it; the CSVs hold the plotted physics."""
+"""Figures: each writes a PNG and the CSV behind it; the CSVs hold the plotted physics. Theory
+figures are drawn here; FEM figures declare their runs (checked without the FEM), draw from
+given runs, and one is built end to end on an 8 x 8 grid through the run cache."""
 
 import csv
+import importlib
+import sys
+import time
+import types
+from pathlib import Path
 
 import numpy as np
 import pytest
 
-from scripts.figures import FIGURES, make_figure, write_table
+from scripts.cases import FEM_LOAD_SWEEP
+from scripts.figures import FEM_FIGURES, FIGURES, THEORY_FIGURES, make_figure, write_table
 from solver.material import Material
+from solver.options import FemCase
+
+ROOT = Path(__file__).resolve().parent.parent
 
 
 def read_columns(path):
+    """CSV columns as float arrays (str arrays where a column is not numeric)."""
     with open(path) as f:
         rows = list(csv.DictReader(f))
-    return {k: np.array([float(r[k]) for r in rows]) for k in rows[0]}
+
+    def column(key):
+        values = [r[key] for r in rows]
+        try:
+            return np.array([float(v) for v in values])
+        except ValueError:
+            return np.array(values)
+
+    return {k: column(k) for k in rows[0]}
 
 
 @pytest.fixture(scope="module")
 def figure_dir(tmp_path_factory):
     directory = tmp_path_factory.mktemp("figures")
-    for name in FIGURES:
+    for name in THEORY_FIGURES:
         make_figure(name, directory)
     return directory
 
 
-@pytest.mark.parametrize("name", FIGURES)
+@pytest.mark.parametrize("name", THEORY_FIGURES)
 def test_figure_writes_png_and_csv(name, figure_dir):
     png = figure_dir / f"{name}.png"
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     assert len(read_columns(figure_dir / f"{name}.csv")) >= 2
     assert not list(figure_dir.glob(".*"))  # no temporary files left behind
-
-
-def test_fig14_area_grows_with_load_and_shrinks_with_scale(figure_dir):
-    data = read_columns(figure_dir / "fig14.csv")
-    finest = {load: data["area_ratio"][data["load_star"] == load][-1]
-              for load in np.unique(data["load_star"])}
-    loads = sorted(finest)
-    assert all(finest[a] < finest[b] for a, b in zip(loads, loads[1:], strict=False))
-    for load in loads:
-        assert np.all(np.diff(data["area_ratio"][data["load_star"] == load]) <= 0)
 
 
 def test_fig17_sliding_area_not_below_normal(figure_dir):
@@ -60,3 +70,98 @@ def test_write_table_refuses_ragged_columns(tmp_path):
     with pytest.raises(ValueError, match="equal length"):
         write_table(tmp_path / "t.csv", {"a": np.arange(3), "b": np.arange(4)})
     assert not list(tmp_path.iterdir())
+
+
+# --- FEM figures: declarations ----------------------------------------------------------------
+
+def test_registry_lists_every_figure_script():
+    scripts = {path.stem for path in (ROOT / "scripts").glob("fig[0-9]*.py")}
+    assert set(FIGURES) == scripts
+    assert not set(THEORY_FIGURES) & set(FEM_FIGURES)
+
+
+@pytest.mark.parametrize("name", FEM_FIGURES)
+def test_fem_figure_declares_its_runs(name):
+    module = importlib.import_module(f"scripts.{name}")
+    cases = module.fem_cases(8)
+    assert cases and all(isinstance(case, FemCase) and case.surface.n == 8 for case in cases)
+    assert callable(module.make)
+
+
+@pytest.mark.parametrize("name", THEORY_FIGURES)
+def test_theory_figure_needs_no_runs(name):
+    assert not hasattr(importlib.import_module(f"scripts.{name}"), "fem_cases")
+
+
+def test_fem_figures_share_runs():
+    """Fig. 14's loads are among Figs. 26–28's, so 2L's sliding runs answer them; Figs. 10
+    and 29 use exactly the runs of Figs. 9 and 21."""
+    from scripts import fig9, fig10, fig14, fig21, fig29
+
+    assert set(fig14.LOADS) <= set(FEM_LOAD_SWEEP)
+    for one, other in ((fig9, fig10), (fig21, fig29)):
+        assert [c.inputs() for c in one.fem_cases(8)] == [c.inputs() for c in other.fem_cases(8)]
+
+
+def fake_runs(cases, mu_s):
+    """Stand-ins for results files, enough for the mu_s figures."""
+    return [types.SimpleNamespace(n=case.surface.n, load_star=case.loading.load_star,
+                                  surface_name=case.surface.name, summary={"mu_s": mu})
+            for case, mu in zip(cases, mu_s, strict=True)]
+
+
+def test_mu_vs_psi_marks_statistical_models_outside_their_range():
+    from scripts import fig22, fig23
+
+    mu_fem = [0.9, None, *[0.5] * 7]  # G2 without sliding inception
+    fig, columns = fig22.make(fake_runs(fig22.fem_cases(8), mu_fem))
+    assert np.isnan(columns["mu_fem"][1]) and columns["mu_fem"][0] == 0.9
+    assert list(columns["cke_valid"]) == [psi <= 8 for psi in columns["psi"]]
+    assert all(columns["let_valid"])  # psi <= 32 and F* <= 0.3
+    labels = fig.axes[0].get_legend_handles_labels()[1]
+    assert "CKE (Eq. 8), outside its range" in labels and "LET (Eq. 20)" in labels
+    fig, columns = fig23.make(fake_runs(fig23.fem_cases(8), [0.9] * 9))
+    assert not any(columns["cke_valid"]) and not any(columns["let_valid"])  # F* = 0.62 > 0.3
+    labels = fig.axes[0].get_legend_handles_labels()[1]
+    assert "LET (Eq. 20)" not in labels and "LET (Eq. 20), outside its range" in labels
+
+
+def test_mu_vs_load_columns():
+    from scripts import fig28
+
+    cases = fig28.fem_cases(8)
+    fig, columns = fig28.make(fake_runs(cases, [0.7] * len(cases)))
+    fem = columns["model"] == "fem"
+    assert list(columns["load_star"][fem]) == list(FEM_LOAD_SWEEP)
+    let = columns["model"] == "let"
+    assert all((columns["note"][let] == "") == (columns["load_star"][let] <= 0.3))
+
+
+# --- one FEM figure end to end ----------------------------------------------------------------
+
+@pytest.mark.fem
+def test_fig14_with_fem_points_end_to_end_and_cached(tmp_path, monkeypatch):
+    """Five normal-only 2L runs on an 8 x 8 grid; the second call reads them from the cache."""
+    pytest.importorskip("dolfinx")
+    runs = tmp_path / "runs"
+    make_figure("fig14", tmp_path, n=8, runs_directory=runs)
+    assert (tmp_path / "fig14.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert len(list(runs.glob("*.h5"))) == 5
+    data = read_columns(tmp_path / "fig14.csv")
+    finest = {load: data["area_ratio"][data["load_star"] == load][-1]
+              for load in np.unique(data["load_star"])}
+    loads = sorted(finest)
+    assert all(finest[a] < finest[b] for a, b in zip(loads, loads[1:], strict=False))
+    for load in loads:
+        assert np.all(np.diff(data["area_ratio"][data["load_star"] == load]) <= 0)
+    fem = [data["fem_area_ratio"][data["load_star"] == load][0] for load in loads]
+    assert all(0 < area <= 1 for area in fem) and np.all(np.diff(fem) >= 0)
+
+    module = types.ModuleType("solver.run")
+    module.run_loads = lambda *args, **kwargs: pytest.fail("a cached run was recomputed")
+    monkeypatch.setitem(sys.modules, "solver.run", module)
+    (tmp_path / "fig14.png").unlink()
+    started = time.perf_counter()
+    make_figure("fig14", tmp_path, n=8, runs_directory=runs)
+    assert time.perf_counter() - started < 10.0
+    assert (tmp_path / "fig14.png").exists()

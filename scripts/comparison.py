@@ -1,0 +1,106 @@
+"""mu_s of the FEM beside the multi-scale model and the statistical CKE and LET models
+(Figs. 22–28). The theory uses each surface on its own 128 x 128 grid; the FEM its N x N
+re-grid, plotted at the surface's psi. A statistical value outside its model's published range
+(``multiscale.statistical``) is drawn hollow on a dotted line and labelled so."""
+
+import numpy as np
+
+from geometry.generate import builtin_surface
+from geometry.statistics import surface_statistics
+from multiscale.scales import scale_decomposition
+from multiscale.theory import evaluate_theory
+from scripts.cases import FEM_LOAD_SWEEP, GAUSSIAN_SURFACES, LOAD_SWEEP, fem_case
+from scripts.fem_views import fem_label, fem_mu
+from scripts.figures import new_axes
+from solver.material import Material
+
+STAND_INS = ("2L", "8L", "63M")
+
+
+def draw_statistical(ax, x, mu, valid, label: str, style: dict) -> None:
+    """Points inside the model's range solid on a solid line; outside hollow, dotted, and
+    labelled "outside its range"."""
+    x, mu, valid = np.asarray(x), np.asarray(mu), np.asarray(valid, dtype=bool)
+    if valid.any():
+        ax.plot(x[valid], mu[valid], "-", label=label, **style)
+    if (~valid).any():
+        ax.plot(x[~valid], mu[~valid], ":", mfc="none", label=f"{label}, outside its range",
+                **style)
+
+
+def surface_title(name: str) -> str:
+    return f"{name} (stand-in)" if name in STAND_INS else name
+
+
+def psi_sweep_cases(load: float, n: int) -> list:
+    """Sliding runs of G1–G9 at F* = ``load``."""
+    return [fem_case(name, load, n) for name in GAUSSIAN_SURFACES]
+
+
+def psi_sweep(load: float, runs):
+    """mu_s vs psi for G1–G9 at one load: FEM, multi-scale, CKE, LET (Figs. 22–25)."""
+    material = Material()
+    theory = [evaluate_theory(builtin_surface(name), load, material) for name in GAUSSIAN_SURFACES]
+    psi = np.array([result.psi for result in theory])
+    columns = {
+        "surface": np.array(GAUSSIAN_SURFACES),
+        "psi": psi,
+        "mu_fem": np.array([fem_mu(run) for run in runs]),
+        "mu_multiscale": np.array([result.mu_s for result in theory]),
+        "mu_cke": np.array([result.mu_cke for result in theory]),
+        "cke_valid": np.array([result.cke_valid for result in theory]),
+        "mu_let": np.array([result.mu_let for result in theory]),
+        "let_valid": np.array([result.let_valid for result in theory]),
+    }
+    fig, ax = new_axes()
+    ax.plot(psi, columns["mu_fem"], "ko", label=fem_label(runs))
+    ax.plot(psi, columns["mu_multiscale"], "s-", color="C0", ms=4, label="multi-scale")
+    draw_statistical(ax, psi, columns["mu_cke"], columns["cke_valid"], "CKE (Eq. 8)",
+                     {"color": "C1", "marker": "^", "ms": 4})
+    draw_statistical(ax, psi, columns["mu_let"], columns["let_valid"], "LET (Eq. 20)",
+                     {"color": "C2", "marker": "v", "ms": 4})
+    ax.set_xlabel("plasticity index ψ (–)")
+    ax.set_ylabel("$\\mu_s$ (–)")
+    ax.set_title(f"Static friction, G1–G9, $F^*$ = {load:g}")
+    ax.legend(fontsize=7)
+    return fig, columns
+
+
+def load_sweep_cases(name: str, n: int) -> list:
+    """Sliding runs of surface ``name`` at the FEM loads of Figs. 26–28."""
+    return [fem_case(name, load, n) for load in FEM_LOAD_SWEEP]
+
+
+def load_sweep(name: str, runs):
+    """mu_s vs F* for one surface: FEM, multi-scale, LET (Figs. 26–28)."""
+    material = Material()
+    surface = builtin_surface(name)
+    scales = scale_decomposition(surface)
+    psi = surface_statistics(surface, material).psi
+    theory = [evaluate_theory(surface, load, material, scales=scales, psi=psi)
+              for load in LOAD_SWEEP]
+    loads = np.array(LOAD_SWEEP)
+    mu_let = np.array([result.mu_let for result in theory])
+    let_valid = np.array([result.let_valid for result in theory])
+    fem_loads = np.array([run.load_star for run in runs])
+    mu_fem = np.array([fem_mu(run) for run in runs])
+    fig, ax = new_axes()
+    ax.plot(fem_loads, mu_fem, "ko", label=fem_label(runs))
+    ax.plot(loads, [result.mu_s for result in theory], "s-", color="C0", ms=4,
+            label="multi-scale")
+    draw_statistical(ax, loads, mu_let, let_valid, "LET (Eq. 20)",
+                     {"color": "C2", "marker": "v", "ms": 4})
+    ax.set_xscale("log")
+    ax.set_xlabel("$F^* = F_n / (A_n S_y)$ (–)")
+    ax.set_ylabel("$\\mu_s$ (–)")
+    ax.set_title(f"Static friction vs load, {surface_title(name)}, ψ = {psi:.3g}")
+    ax.legend(fontsize=7)
+    notes = ["" if valid else "outside its range" for valid in let_valid]
+    fem_notes = ["" if np.isfinite(mu) else "no sliding inception" for mu in mu_fem]
+    columns = {
+        "model": np.array(["fem"] * len(runs) + ["multiscale"] * len(loads) + ["let"] * len(loads)),
+        "load_star": np.concatenate([fem_loads, loads, loads]),
+        "mu_s": np.concatenate([mu_fem, [result.mu_s for result in theory], mu_let]),
+        "note": np.array(fem_notes + [""] * len(loads) + notes),
+    }
+    return fig, columns

@@ -1,0 +1,14 @@
+"""Fig. 21: F_t/F_n vs u_x/omega_0 for G1–G9 (FEM), omega_0 the interference under the normal
+preload only: the flat's approach from first touch, max(z) - h at the end of the preload."""
+
+from functools import partial
+
+from scripts.cases import CURVE_LOAD, GAUSSIAN_SURFACES, fem_case
+from scripts.fem_views import tangential_curves
+
+
+def fem_cases(n):
+    return [fem_case(name, CURVE_LOAD, n) for name in GAUSSIAN_SURFACES]
+
+
+make = partial(tangential_curves, normalised=True)

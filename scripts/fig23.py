@@ -1,0 +1,10 @@
+"""Fig. 23: mu_s vs psi for G1–G9 at F* = 0.62: FEM, multi-scale, CKE, LET."""
+
+from functools import partial
+
+from scripts.cases import PSI_SWEEP_LOADS
+from scripts.comparison import psi_sweep, psi_sweep_cases
+
+LOAD = PSI_SWEEP_LOADS[1]
+fem_cases = partial(psi_sweep_cases, LOAD)
+make = partial(psi_sweep, LOAD)

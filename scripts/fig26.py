@@ -1,0 +1,10 @@
+"""Fig. 26: mu_s vs F* for surface 2L: FEM, multi-scale, LET."""
+
+from functools import partial
+
+from scripts.cases import LOAD_SWEEP_SURFACES
+from scripts.comparison import load_sweep, load_sweep_cases
+
+SURFACE = LOAD_SWEEP_SURFACES[0]
+fem_cases = partial(load_sweep_cases, SURFACE)
+make = partial(load_sweep, SURFACE)

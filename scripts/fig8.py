@@ -1,0 +1,10 @@
+"""Fig. 8: FEM contact under the normal load for surface 8L (stand-in) at F* = 0.06 and 0.12."""
+
+from scripts.cases import CONTACT_MAP_LOADS, fem_case
+from scripts.fem_views import contact_maps as make  # noqa: F401
+
+SURFACE = "8L"
+
+
+def fem_cases(n):
+    return [fem_case(SURFACE, load, n, normal_only=True) for load in CONTACT_MAP_LOADS]

@@ -1,0 +1,363 @@
+"""Run cache: every FEM run is computed once and kept as ``results/runs/<key>.h5``.
+
+The key is the SHA-256 of everything that determines a run: the case (``FemCase.inputs()``:
+surface digest, loading, material, mesh and solver options), the *physics version* (the SHA-256
+of the source text of the modules that compute results) and the entry format. The number of MPI
+ranks is not part of it: runs agree to 1e-6 across rank counts (``tests/test_solver_mpi.py``).
+
+An entry is finished when its file exists under its final name. Entries are written by
+:func:`solver.command.save_run` (temporary file, then rename), each as soon as its run ends, so
+a killed batch loses at most the run in progress and a half-written file is never read as a
+result. Unconverged runs are entries too (a rerun would repeat them); delete the file to retry.
+
+A normal-only case is also answered by the finished sliding run of the same case: its preload is
+the same computation (read it with :func:`solver.post.preload_state`).
+
+    python -m solver.cache G5 --load 0.155 0.62 --n 16     # fill the cache, print the paths
+
+Imports without dolfinx; the FEM stack is imported when a run is computed.
+"""
+
+from __future__ import annotations
+
+import argparse
+import hashlib
+import json
+import os
+import re
+import sys
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, replace
+from pathlib import Path
+
+from solver.options import FemCase, Loading
+
+ROOT = Path(__file__).resolve().parent.parent
+#: Environment variable naming the cache directory (default ``results/runs``).
+RUNS_VARIABLE = "ROUGHFRICTION_RUNS"
+DEFAULT_RUNS = Path("results/runs")
+#: Modules of ``solver/`` that do not change results (command line, cache, reading, timing).
+NOT_PHYSICS = ("benchmark.py", "cache.py", "command.py", "post.py")
+#: Layout version of an entry (bumped when what an entry holds changes).
+ENTRY_FORMAT = 1
+
+STEP_LINE = re.compile(r"\s*(?P<phase>\w+)\s+Fn=(?P<fn>\S+) N Ft=(?P<ft>\S+) N .*"
+                       r"newton=(?P<newton>\d+)")
+
+
+# --- keys ------------------------------------------------------------------------------------
+
+
+def physics_files(root: Path = ROOT) -> list[Path]:
+    """The source files that determine FEM results: ``solver/*.py`` except :data:`NOT_PHYSICS`,
+    ``geometry/mesh.py`` and ``geometry/surface.py``."""
+    solver = sorted(path for path in (Path(root) / "solver").glob("*.py")
+                    if path.name not in NOT_PHYSICS)
+    return solver + [Path(root) / "geometry" / "mesh.py", Path(root) / "geometry" / "surface.py"]
+
+
+def physics_version(root: Path = ROOT) -> str:
+    """SHA-256 of the names and contents of :func:`physics_files` (from the files, not git)."""
+    digest = hashlib.sha256()
+    for path in physics_files(root):
+        text = path.read_bytes()
+        digest.update(f"{path.relative_to(root).as_posix()}\0{len(text)}\0".encode())
+        digest.update(text)
+    return digest.hexdigest()
+
+
+def _digest(record: dict) -> str:
+    return hashlib.sha256(json.dumps(record, sort_keys=True).encode()).hexdigest()
+
+
+def run_key(case: FemCase, physics: str) -> str:
+    """The cache key of one run: SHA-256 of the case's inputs, the physics version and the
+    entry format (hex, 64 characters)."""
+    return _digest({"format": ENTRY_FORMAT, "physics": physics, "inputs": case.inputs()})
+
+
+def group_key(case: FemCase) -> str:
+    """What runs sharing everything but the load have in common (surface, material, mesh,
+    solver, normal_only)."""
+    inputs = case.inputs()
+    del inputs["loading"]["load_star"]
+    return _digest(inputs)
+
+
+def runs_directory(directory=None) -> Path:
+    """The cache directory: ``directory``, else ``$ROUGHFRICTION_RUNS``, else results/runs."""
+    return Path(directory or os.environ.get(RUNS_VARIABLE) or DEFAULT_RUNS)
+
+
+def entry_path(directory: Path, case: FemCase, physics: str) -> Path:
+    """Where the entry of ``case`` lives (finished or not)."""
+    return Path(directory) / f"{run_key(case, physics)}.h5"
+
+
+def finished_entry(directory: Path, case: FemCase, physics: str) -> Path | None:
+    """The finished entry answering ``case``, or None.
+
+    Its own entry; for a normal-only case, else the sliding run of the same case.
+    """
+    candidates = [case]
+    if case.loading.normal_only:
+        candidates.append(replace(case, loading=Loading(case.loading.load_star)))
+    for candidate in candidates:
+        path = entry_path(directory, candidate, physics)
+        if path.is_file():
+            return path
+    return None
+
+
+# --- planning --------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class RunGroup:
+    """Missing runs that differ only in the load: one ``run_loads`` call.
+
+    Attributes
+    ----------
+    cases : tuple of FemCase
+        One per load, ascending F*.
+    paths : tuple of pathlib.Path
+        Their entries.
+    """
+
+    cases: tuple
+    paths: tuple
+
+    @property
+    def loads(self) -> list[float]:
+        """F* of the runs [-]."""
+        return [case.loading.load_star for case in self.cases]
+
+
+def plan_runs(cases: Sequence[FemCase], found: Sequence[Path | None], directory: Path,
+              physics: str) -> list[RunGroup]:
+    """Group the cases without a finished entry (``found[i] is None``) by everything but the
+    load, each run once, loads ascending; groups in order of first appearance."""
+    groups: dict[str, dict[str, FemCase]] = {}
+    for case, path in zip(cases, found, strict=True):
+        if path is None:
+            groups.setdefault(group_key(case), {})[run_key(case, physics)] = case
+    planned = []
+    for members in groups.values():
+        ordered = tuple(sorted(members.values(), key=lambda case: case.loading.load_star))
+        planned.append(RunGroup(ordered, tuple(entry_path(directory, case, physics)
+                                               for case in ordered)))
+    return planned
+
+
+# --- progress --------------------------------------------------------------------------------
+
+
+def run_label(case: FemCase) -> str:
+    """``G5 N=32 F*=0.155`` (``normal`` appended for a normal-only run)."""
+    label = f"{case.surface.name or 'surface'} N={case.surface.n} F*={case.loading.load_star:g}"
+    return label + (" normal" if case.loading.normal_only else "")
+
+
+def _minutes(seconds: float) -> str:
+    return f"{seconds:.0f} s" if seconds < 120 else f"{seconds / 60:.1f} min"
+
+
+class RunReporter:
+    """Progress of a batch of runs, as text lines (rank 0 prints them to stderr).
+
+    A line per step of the run in progress (run, step, phase, F_t/F_n, Newton iterations),
+    a line per finished run with an overall progress bar and the estimated time left (mean wall
+    time of the runs so far times the runs left), and a table of all runs at the end.
+
+    Parameters
+    ----------
+    total : int
+        Runs to compute [-].
+    write : callable
+        Receives each line.
+    """
+
+    BAR = 20
+
+    def __init__(self, total: int, write: Callable[[str], None]):
+        self.total, self.write = total, write
+        self.done = 0
+        self.label = ""
+        self.steps = self.iterations = 0
+        self.started = time.perf_counter()
+
+    def begin(self, case: FemCase) -> None:
+        """The next run starts."""
+        self.label, self.steps, self.iterations = run_label(case), 0, 0
+
+    @property
+    def prefix(self) -> str:
+        return f"[{self.done + 1}/{self.total}] {self.label}"
+
+    def step(self, line: str) -> None:
+        """A line from the FEM run (``progress`` of :func:`solver.run.run_loads`)."""
+        match = STEP_LINE.match(line)
+        if match is None:
+            self.write(f"{self.prefix}: {line.strip()}")
+            return
+        self.steps += 1
+        newton = int(match["newton"])
+        self.iterations += newton
+        ratio = float(match["ft"]) / float(match["fn"]) if float(match["fn"]) else float("nan")
+        self.write(f"{self.prefix}: step {self.steps} {match['phase']} Ft/Fn={ratio:.4f} "
+                   f"newton {newton} ({self.iterations} in run)")
+
+    def finished(self, summary: dict) -> None:
+        """A run ended with this summary (``FemResult.summary()``)."""
+        self.done += 1
+        elapsed = time.perf_counter() - self.started
+        left = elapsed / self.done * (self.total - self.done)
+        filled = round(self.BAR * self.done / max(self.total, 1))
+        mu_s = summary.get("mu_s")
+        outcome = "converged" if summary.get("converged") else "NOT converged"
+        self.write(f"[{self.done}/{self.total}] {self.label}: {outcome}, "
+                   f"{summary.get('steps')} steps, {summary.get('newton_iterations')} its, "
+                   + (f"mu_s={mu_s:.4f}, " if mu_s is not None else "")
+                   + f"{_minutes(summary.get('wall_s') or 0.0)} |{'#' * filled}"
+                   f"{'.' * (self.BAR - filled)}| {self.done}/{self.total} runs, "
+                   f"{_minutes(elapsed)} elapsed, ~{_minutes(left)} left")
+
+
+def runs_table(rows: Sequence[dict]) -> list[str]:
+    """The end-of-batch table: one line per run (surface, N, F*, wall time, converged, mu_s,
+    whether it was computed now or read from the cache)."""
+    header = f"{'surface':<10} {'N':>4} {'F*':>7} {'kind':<8} {'wall_s':>8} {'converged':<9} " \
+             f"{'mu_s':>8}  source"
+    lines = [header]
+    for row in rows:
+        mu_s = row["mu_s"]
+        lines.append(f"{row['surface']:<10} {row['n']:>4} {row['load_star']:>7g} "
+                     f"{'normal' if row['normal_only'] else 'sliding':<8} "
+                     f"{row['wall_s'] or 0.0:>8.1f} {row['converged']!s:<9} "
+                     f"{'-' if mu_s is None else f'{mu_s:.4f}':>8}  {row['source']}")
+    return lines
+
+
+def _table_rows(cases, paths, computed) -> list[dict]:
+    from solver.post import read_run
+
+    rows = []
+    for case, path in zip(cases, paths, strict=True):
+        entry = read_run(path)
+        source = "computed" if path in computed else "cache"
+        if entry.inputs["loading"]["normal_only"] != case.loading.normal_only:
+            source += " (its sliding run)"
+        rows.append({"surface": case.surface.name, "n": case.surface.n,
+                     "load_star": case.loading.load_star,
+                     "normal_only": case.loading.normal_only,
+                     "wall_s": entry.summary["wall_s"], "converged": entry.converged,
+                     "mu_s": entry.summary["mu_s"], "source": source})
+    return rows
+
+
+def stderr_line(line: str) -> None:
+    print(line, file=sys.stderr, flush=True)
+
+
+# --- the cache -------------------------------------------------------------------------------
+
+
+def cached_results(cases: Sequence[FemCase], comm=None, progress=None,
+                   directory=None) -> list[Path]:
+    """The results file of every case, computing (on all ranks of ``comm``) those missing.
+
+    Missing runs are grouped by everything but the load, and each group is one
+    :func:`solver.run.run_loads` call; each run's entry is written (by rank 0) as soon as it
+    ends.
+
+    Parameters
+    ----------
+    cases : sequence of FemCase
+        What is needed (repeats allowed).
+    comm : mpi4py.MPI.Comm, optional
+        Communicator of the runs (default COMM_WORLD); call on every rank.
+    progress : callable, optional
+        Receives the progress lines and the final table (rank 0 only); default stderr.
+    directory : str or pathlib.Path, optional
+        The cache (default :func:`runs_directory`).
+
+    Returns
+    -------
+    list of pathlib.Path
+        One finished entry per case, in order (for a normal-only case possibly the sliding
+        run of the same case).
+    """
+    from mpi4py import MPI
+
+    comm = MPI.COMM_WORLD if comm is None else comm
+    directory = runs_directory(directory)
+    physics = physics_version()
+    found = None
+    if comm.rank == 0:
+        found = [finished_entry(directory, case, physics) for case in cases]
+    found = comm.bcast(found, root=0)
+    groups = plan_runs(cases, found, directory, physics)
+    write = (progress or stderr_line) if comm.rank == 0 else (lambda line: None)
+    reporter = RunReporter(sum(len(group.cases) for group in groups), write)
+    computed = set()
+    for group in groups:
+        _compute_group(group, comm, reporter)
+        computed.update(group.paths)
+    paths = [path or entry_path(directory, case, physics)
+             for case, path in zip(cases, found, strict=True)]
+    if comm.rank == 0 and paths:
+        for line in runs_table(_table_rows(cases, paths, computed)):
+            write(line)
+    return paths
+
+
+def _compute_group(group: RunGroup, comm, reporter: RunReporter) -> None:
+    """Run one group, writing each entry as soon as its run ends."""
+    from solver.command import save_run
+    from solver.run import run_loads
+
+    def finished(index, fem_run):
+        save_run(group.paths[index], group.cases[index], fem_run, comm)
+        reporter.finished(fem_run.result.summary())
+        if index + 1 < len(group.cases):
+            reporter.begin(group.cases[index + 1])
+
+    reporter.begin(group.cases[0])
+    run_loads(group.cases[0], group.loads, comm, reporter.step, finished=finished)
+
+
+# --- command line ----------------------------------------------------------------------------
+
+
+def main(argv: list[str] | None = None) -> int:
+    """``python -m solver.cache SURFACE --load F [F ...] --n N``: fill the cache."""
+    from geometry.errors import InputError
+    from scripts.cli import EXIT_INPUT_ERROR, add_surface_arguments, is_root_rank, surface_from_args
+    from solver.command import surface_on_fem_grid
+
+    parser = argparse.ArgumentParser(prog="python -m solver.cache",
+                                     description="Compute the runs missing from the run cache "
+                                     "and print their results files.")
+    add_surface_arguments(parser)
+    parser.add_argument("--load", type=float, nargs="+", required=True, metavar="FSTAR")
+    parser.add_argument("--n", type=int, metavar="N", help="surface cells per side")
+    parser.add_argument("--normal-only", action="store_true", help="preload only")
+    parser.add_argument("--directory", help=f"cache directory (default ${RUNS_VARIABLE} or "
+                        f"{DEFAULT_RUNS})")
+    args = parser.parse_args(argv)
+    try:
+        surface = surface_on_fem_grid(surface_from_args(args), args.n)
+        cases = [FemCase(surface, Loading(load, args.normal_only)) for load in args.load]
+        paths = cached_results(cases, directory=args.directory)
+    except InputError as error:
+        if is_root_rank():
+            print(f"roughfriction: error: {error}", file=sys.stderr)
+        return EXIT_INPUT_ERROR
+    if is_root_rank():
+        print("\n".join(str(path) for path in paths))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

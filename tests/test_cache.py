@@ -1,0 +1,321 @@
+"""Run cache: keys, reuse, grouping, entries written one by one, and a run killed mid-way."""
+
+import os
+import selectors
+import signal
+import subprocess
+import sys
+import time
+import types
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from geometry.surface import Surface
+from solver import cache
+from solver.cache import (
+    cached_results,
+    entry_path,
+    finished_entry,
+    physics_files,
+    physics_version,
+    run_key,
+)
+from solver.options import FemCase, Loading, SolverOptions
+from solver.results import FemResult, StepRecord
+
+ROOT = Path(__file__).resolve().parent.parent
+PHYSICS = physics_version()
+
+
+def rough_case(load=0.155, normal_only=False, seed=3, name="G-test", **solver):
+    heights = np.random.default_rng(seed).normal(0.0, 0.1e-6, (8, 8))
+    return FemCase(Surface(heights, 1e-6, name), Loading(load, normal_only),
+                   solver=SolverOptions(**solver))
+
+
+# --- keys ------------------------------------------------------------------------------------
+
+def test_key_is_the_same_in_another_process():
+    code = ("from tests.test_cache import rough_case; from solver.cache import run_key, "
+            "physics_version; print(run_key(rough_case(), physics_version()))")
+    other = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True,
+                           text=True, check=True).stdout.strip()
+    assert other == run_key(rough_case(), PHYSICS)
+    assert len(other) == 64
+
+
+@pytest.mark.parametrize("changed", [
+    rough_case(load=0.156),
+    rough_case(normal_only=True),
+    rough_case(seed=4),
+    rough_case(penalty=11.0),
+    rough_case(max_steps=299),
+])
+def test_key_changes_with_what_determines_the_run(changed):
+    assert run_key(changed, PHYSICS) != run_key(rough_case(), PHYSICS)
+
+
+def test_key_changes_with_one_height():
+    case = rough_case()
+    heights = case.surface.heights.copy()
+    heights[3, 4] += 1e-12
+    changed = replace(case, surface=Surface(heights, 1e-6, case.surface.name))
+    assert run_key(changed, PHYSICS) != run_key(case, PHYSICS)
+
+
+def copy_physics_sources(destination: Path) -> None:
+    for path in physics_files(ROOT):
+        target = destination / path.relative_to(ROOT)
+        target.parent.mkdir(parents=True, exist_ok=True)
+        target.write_bytes(path.read_bytes())
+
+
+def test_physics_version_follows_the_physics_sources(tmp_path):
+    names = {path.relative_to(ROOT).as_posix() for path in physics_files(ROOT)}
+    assert {"solver/equilibrium.py", "solver/contact.py", "solver/run.py", "geometry/mesh.py",
+            "geometry/surface.py"} <= names
+    assert not names & {"solver/cache.py", "solver/command.py", "solver/benchmark.py",
+                        "solver/post.py", "geometry/readers.py"}
+    copy_physics_sources(tmp_path)
+    assert physics_version(tmp_path) == PHYSICS  # contents, not place or git
+    (tmp_path / "solver" / "cache.py").write_text("# not physics\n")
+    assert physics_version(tmp_path) == PHYSICS
+    contact = tmp_path / "solver" / "contact.py"
+    contact.write_text(contact.read_text() + "\n# a change\n")
+    changed = physics_version(tmp_path)
+    assert changed != PHYSICS
+    assert run_key(rough_case(), changed) != run_key(rough_case(), PHYSICS)
+
+
+# --- reuse and grouping, with a stand-in for the FEM -----------------------------------------
+
+def synthetic_run(case: FemCase):
+    """What run_loads returns for ``case``, without the FEM: preload to F_n (and a slide)."""
+    fn = case.normal_force
+    record = {"slide": 0.0, "flat_height": 1e-7, "area_ratio": 0.25, "contact_nodes": 16,
+              "contact_patches": 4, "slipping_nodes": 0, "plastic_volume_fraction": 0.0,
+              "newton_iterations": 3, "krylov_iterations": 0, "wall_s": 0.1}
+    records = [StepRecord("normal", fn, 0.0, **record)]
+    if not case.loading.normal_only:
+        records.append(StepRecord("tangential", fn, 0.5 * fn,
+                                  **{**record, "slide": 1e-8, "slipping_nodes": 16}))
+    result = FemResult(records, True, "", case.loading.normal_only, {"total_s": 0.2},
+                       {"ranks": 1})
+    return types.SimpleNamespace(result=result, maps={"contact_normal": np.eye(8, dtype=bool)})
+
+
+class FakeFem:
+    """Stands in for solver.run: records the run_loads calls, and what was in the cache
+    directory when each run started."""
+
+    def __init__(self, directory: Path, fail_at=None):
+        self.directory, self.fail_at = directory, fail_at
+        self.calls, self.entries_at_start = [], []
+
+    def run_loads(self, case, loads, comm, progress=None, xdmf_directory=None, finished=None):
+        self.calls.append((case.surface.name, case.loading.normal_only, list(loads)))
+        runs = []
+        for index, load in enumerate(loads):
+            self.entries_at_start.append(len(list(self.directory.glob("*.h5"))))
+            if (case.surface.name, load) == self.fail_at:
+                raise RuntimeError("killed")
+            progress("normal     Fn=1.0e+00 N Ft=5.0e-01 N ux=0 m newton=3 t=0.1s")
+            fem_run = synthetic_run(replace(case, loading=Loading(load,
+                                                                  case.loading.normal_only)))
+            finished(index, fem_run)
+            runs.append(fem_run)
+        return runs
+
+
+@pytest.fixture
+def fake_fem(tmp_path, monkeypatch):
+    pytest.importorskip("dolfinx")  # write_hdf5 records the dolfinx version
+    fake = FakeFem(tmp_path)
+    module = types.ModuleType("solver.run")
+    module.run_loads = fake.run_loads
+    monkeypatch.setitem(sys.modules, "solver.run", module)
+    return fake
+
+
+def comm_self():
+    from mpi4py import MPI
+
+    return MPI.COMM_SELF
+
+
+def fill(cases, directory, lines=None):
+    return cached_results(cases, comm_self(), (lines if lines is not None else []).append,
+                          directory)
+
+
+def test_missing_runs_are_grouped_by_all_but_the_load(fake_fem, tmp_path):
+    from solver.post import read_run
+
+    cases = [rough_case(0.3), rough_case(0.155), rough_case(0.3), rough_case(0.155, True),
+             rough_case(0.155, seed=5, name="other")]
+    lines = []
+    paths = fill(cases, tmp_path, lines)
+    assert fake_fem.calls == [("G-test", False, [0.155, 0.3]), ("G-test", True, [0.155]),
+                              ("other", False, [0.155])]
+    assert fake_fem.entries_at_start == [0, 1, 2, 3]  # each entry written as its run ends
+    assert paths[0] == paths[2] and len(set(paths)) == 4
+    for case, path in zip(cases, paths, strict=True):
+        assert path == entry_path(tmp_path, case, PHYSICS)
+        entry = read_run(path)
+        assert entry.load_star == case.loading.load_star
+        assert entry.inputs == case.inputs()
+    assert sum("converged" in line and "runs," in line for line in lines) == 4  # progress bar
+    assert lines[-6].split()[:3] == ["surface", "N", "F*"]  # the table, one row per case
+    assert all(line.rstrip().endswith("computed") for line in lines[-5:])
+
+
+def test_finished_entries_are_reused_without_recomputation(fake_fem, tmp_path):
+    cases = [rough_case(0.155), rough_case(0.3)]
+    first = fill(cases, tmp_path)
+    lines = []
+    assert fill(cases, tmp_path, lines) == first
+    assert len(fake_fem.calls) == 1
+    assert all(line.rstrip().endswith("cache") for line in lines[-2:])
+
+
+def test_normal_only_case_is_answered_by_the_sliding_run(fake_fem, tmp_path):
+    sliding = fill([rough_case(0.155)], tmp_path)
+    assert fill([rough_case(0.155, normal_only=True)], tmp_path) == sliding
+    assert len(fake_fem.calls) == 1
+    # ...but a sliding case is not answered by a normal-only run.
+    fill([rough_case(0.3, normal_only=True)], tmp_path)
+    fill([rough_case(0.3)], tmp_path)
+    assert [call[1:] for call in fake_fem.calls[1:]] == [(True, [0.3]), (False, [0.3])]
+
+
+def test_temporary_files_are_not_finished_entries(fake_fem, tmp_path):
+    case = rough_case()
+    final = entry_path(tmp_path, case, PHYSICS)
+    leftover = final.with_name(f".{final.name}.12345.tmp")
+    leftover.write_bytes(b"\x89HDF\r\n half-written")
+    assert finished_entry(tmp_path, case, PHYSICS) is None
+    assert fill([case], tmp_path) == [final]
+    assert fake_fem.calls == [("G-test", False, [0.155])]
+
+
+def test_a_failure_keeps_the_runs_finished_before_it(fake_fem, tmp_path):
+    cases = [rough_case(0.155), rough_case(0.3), rough_case(0.5)]
+    fake_fem.fail_at = ("G-test", 0.3)
+    with pytest.raises(RuntimeError, match="killed"):
+        fill(cases, tmp_path)
+    assert [path.name for path in tmp_path.glob("*.h5")] == \
+        [entry_path(tmp_path, cases[0], PHYSICS).name]
+    fake_fem.fail_at = None
+    fill(cases, tmp_path)
+    assert fake_fem.calls[-1] == ("G-test", False, [0.3, 0.5])  # only what was missing
+
+
+def test_cache_directory_from_the_environment(monkeypatch, tmp_path):
+    monkeypatch.setenv(cache.RUNS_VARIABLE, str(tmp_path))
+    assert cache.runs_directory() == tmp_path
+    assert cache.runs_directory(tmp_path / "x") == tmp_path / "x"
+    monkeypatch.delenv(cache.RUNS_VARIABLE)
+    assert cache.runs_directory() == Path("results/runs")
+
+
+def test_progress_lines_name_the_run_and_the_ratio():
+    lines = []
+    reporter = cache.RunReporter(2, lines.append)
+    reporter.begin(rough_case(0.155))
+    reporter.step("tangential Fn=2.00000e+00 N Ft=5.00000e-01 N ux=1.0e-08 m Ar/An=0.2 "
+                  "nodes=3 slip=0 plastic=0.1 newton=4 t=1.0s")
+    reporter.step("  step cut (Newton 15 its, residual 1e-2 F_n)")
+    reporter.finished({"converged": True, "steps": 9, "newton_iterations": 40, "mu_s": 0.75,
+                       "wall_s": 12.0})
+    assert lines[0] == ("[1/2] G-test N=8 F*=0.155: step 1 tangential Ft/Fn=0.2500 newton 4 "
+                        "(4 in run)")
+    assert lines[1].endswith("step cut (Newton 15 its, residual 1e-2 F_n)")
+    assert "mu_s=0.7500" in lines[2] and "1/2 runs" in lines[2] and "left" in lines[2]
+    assert "|" + "#" * 10 + "." * 10 + "|" in lines[2]
+
+
+# --- real FEM runs ----------------------------------------------------------------------------
+
+def command_environment() -> dict:
+    """This environment without an MPI launcher's variables (the child is a singleton)."""
+    launcher = ("OMPI_", "PMIX_", "PMI_", "OPAL_", "HYDRA_")
+    env = {key: value for key, value in os.environ.items() if not key.startswith(launcher)}
+    env.update(OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
+               OMP_NUM_THREADS="1", OPENBLAS_NUM_THREADS="1")
+    return env
+
+
+def wait_for_line(process, text: str, seconds: float) -> str:
+    """Read the child's stderr until a line containing ``text``; fail after ``seconds``."""
+    selector = selectors.DefaultSelector()
+    selector.register(process.stderr, selectors.EVENT_READ)
+    deadline = time.monotonic() + seconds
+    while time.monotonic() < deadline:
+        if selector.select(timeout=1.0):
+            line = process.stderr.readline()
+            if not line:
+                break
+            if text in line:
+                return line
+    pytest.fail(f"no line with {text!r} on the child's stderr within {seconds} s")
+
+
+@pytest.mark.fem
+def test_a_killed_run_leaves_no_entry_and_a_rerun_completes(tmp_path):
+    pytest.importorskip("dolfinx")
+    from geometry.generate import builtin_surface
+    from solver.command import surface_on_fem_grid
+    from solver.post import read_run
+
+    command = [sys.executable, "-m", "solver.cache", "G5", "--load", "0.155", "--n", "8",
+               "--directory", str(tmp_path)]
+    process = subprocess.Popen(command, cwd=ROOT, env=command_environment(), text=True,
+                               stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    try:
+        wait_for_line(process, ": step 1 normal", 120)  # it is computing
+        assert process.poll() is None
+        process.send_signal(signal.SIGKILL)
+        assert process.wait(30) == -signal.SIGKILL
+    finally:
+        if process.poll() is None:
+            process.kill()
+    assert not list(tmp_path.glob("*.h5"))  # nothing under a final name
+
+    done = subprocess.run(command, cwd=ROOT, env=command_environment(), text=True,
+                          capture_output=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    case = FemCase(surface_on_fem_grid(builtin_surface("G5"), 8), Loading(0.155))
+    path = entry_path(tmp_path, case, PHYSICS)
+    assert done.stdout.strip() == str(path)
+    entry = read_run(path)
+    assert entry.converged and entry.summary["mu_s"] > 0
+    assert entry.maps["surface_heights"].shape == (8, 8)
+    assert [p.name for p in tmp_path.iterdir()] == [path.name]  # no temporary file left
+
+
+@pytest.mark.mpi
+@pytest.mark.fem
+def test_an_entry_computed_on_two_ranks_serves_one_rank(tmp_path, monkeypatch):
+    """Every rank computes, rank 0 writes; the key has no rank count, so a serial request
+    finds the two-rank entry."""
+    pytest.importorskip("dolfinx")
+    from mpi4py import MPI
+
+    from solver.post import read_run
+
+    comm = MPI.COMM_WORLD
+    assert comm.size == 2, "run under mpirun -n 2"
+    directory = Path(comm.bcast(str(tmp_path), root=0))
+    case = rough_case(0.155)
+    (path,) = cached_results([case], comm, lambda line: None, directory)
+    assert path == entry_path(directory, case, PHYSICS)
+    if comm.rank == 0:
+        assert read_run(path).sizes["ranks"] == 2
+        module = types.ModuleType("solver.run")
+        module.run_loads = lambda *args, **kwargs: pytest.fail("recomputed")
+        monkeypatch.setitem(sys.modules, "solver.run", module)
+        assert cached_results([case], MPI.COMM_SELF, lambda line: None, directory) == [path]
+    comm.barrier()
