@@ -34,6 +34,10 @@ LINE_SEARCH_HALVINGS = 5
 #: Give a step up when ||R|| + |r| has not halved over this many iterations (stick/slip or
 #: open/closed cycling; the step is then cut) [-].
 STAGNATION_WINDOW = 4
+#: Newton iterations with the contact law free; then the active set is frozen (a smooth
+#: problem: no open/closed cycling) until the iterate converges, checked against the law, and
+#: re-frozen at the law's set if they differ (a primal active-set strategy) [-].
+FREEZE_AFTER = 3
 #: Krylov tolerance = FORCING_FACTOR x (||R|| + |r|) / F_n, clipped to [FORCING_MIN, FORCING_MAX].
 FORCING_FACTOR = 0.1
 FORCING_MIN = 1e-10
@@ -135,6 +139,7 @@ class Equilibrium:
         self._near_nullspace = (reduction.near_nullspace(solid.V.tabulate_dof_coordinates())
                                 if method == "iterative" else None)
 
+        self._active = None  # frozen (contact, slip) sets of the contact nodes, or None
         # Reduced rows of the contact nodes (owned masters: their reduced dofs are local).
         reduced_nodes = reduction.reduced_node[flat.nodes]
         self._contact_rows = (3 * reduced_nodes[:, None] + np.arange(3)).astype(PETSc.IntType)
@@ -158,7 +163,8 @@ class Equilibrium:
         self.reduction.restrict(self._residual_full, self.residual)
 
         contact = self.flat.respond(solid.displacement.x.array.reshape(-1, 3),
-                                    self.flat_height, flat_slide, friction, predictor)
+                                    self.flat_height, flat_slide, friction, predictor,
+                                    self._active)
         self.residual.setValues(self._contact_rows.ravel(), contact.force.ravel(),
                                 addv=PETSc.InsertMode.ADD_VALUES)
         self.residual.assemble()
@@ -225,6 +231,7 @@ class Equilibrium:
         :meth:`solve`."""
         tolerance_force = self.options.residual_tolerance * normal_force
         tolerance_increment = self.options.increment_tolerance * self.spacing
+        self._active = None
         state = self._evaluate(normal_force, flat_slide, friction, predictor)
         increment, krylov = 0.0, 0
         history = []
@@ -232,8 +239,14 @@ class Equilibrium:
             if (not predictor and state.residual <= tolerance_force
                     and abs(state.force_error) <= tolerance_force
                     and increment <= tolerance_increment):
-                return NewtonReport(True, iteration, krylov, state.residual / normal_force,
-                                    state.contact)
+                if self._active is None or self._set_is_consistent(state.contact):
+                    self._active = None
+                    return NewtonReport(True, iteration, krylov, state.residual / normal_force,
+                                        state.contact)
+                # converged on a frozen set that the contact law rejects: take the law's set
+                self._active = (state.contact.free_contact, state.contact.free_slipping)
+                state = self._evaluate(normal_force, flat_slide, friction, predictor=False)
+                history.clear()
             history.append(state.residual + abs(state.force_error))
             stagnating = (len(history) > STAGNATION_WINDOW + 2
                           and history[-1] > 0.5 * history[-1 - STAGNATION_WINDOW])
@@ -246,6 +259,8 @@ class Equilibrium:
                 state = self._evaluate(normal_force, flat_slide, friction, predictor)
                 increment = np.inf
                 continue
+            if iteration == FREEZE_AFTER and self._active is None:
+                self._active = (state.contact.in_contact, state.contact.slipping)
             self.assemble_tangent(state.contact)
             try:
                 height_increment, its = self._bordered_solve(
@@ -257,7 +272,15 @@ class Equilibrium:
                                             flat_slide, friction, full_step=predictor)
             increment = step * self._x1.norm(PETSc.NormType.NORM_INFINITY)
             predictor = False
+        self._active = None
         return NewtonReport(False, iteration, krylov, state.residual / normal_force, state.contact)
+
+    def _set_is_consistent(self, contact: ContactResponse) -> bool:
+        """The frozen sets are the ones the contact law gives at this iterate (no node in
+        tension, none penetrating outside the set; no slipping node below the cap, no sticking
+        one above it), on every rank."""
+        return self.flat.count((contact.in_contact != contact.free_contact)
+                               | (contact.slipping != contact.free_slipping)) == 0
 
     def _evaluate(self, normal_force: float, flat_slide: float, friction: bool,
                   predictor: bool) -> _Iterate:
@@ -323,6 +346,19 @@ class Equilibrium:
         self.solid.commit()
         self.flat.commit(contact)
         self._committed = (self.displacement.copy(), self.flat_height)
+
+    def committed_state(self) -> tuple:
+        """Everything a converged step leaves behind (displacement, flat height, plastic
+        history, contact history), to branch several loadings from one state."""
+        displacement, height = self._committed
+        return (displacement.copy(), height, self.solid.committed, self.flat.committed_state())
+
+    def resume(self, state: tuple) -> None:
+        """Return to a :meth:`committed_state` (it stays valid for further resumes)."""
+        displacement, height, self.solid.committed, flat_state = state
+        self._committed = (displacement.copy(), height)
+        self.flat.resume(flat_state)
+        self.restore()
 
     def restore(self) -> None:
         """Return to the last committed step (after a failed step)."""

@@ -58,6 +58,8 @@ class SolverOptions:
     direct_limit : int
         Largest reduced system solved directly by "auto" [dofs]. GAMG (built once, reused)
         was faster already at N = 8 (G5, F* = 0.155: 1.2 s vs 1.4 s; N = 16: 3.1 s vs 8.7 s).
+        A nearly incompressible solid (nu -> 0.5) needs "direct": GAMG-preconditioned CG
+        then stalls.
     residual_tolerance : float
         Newton: ||R|| and |sum p a - F_n| below this times F_n [-].
     increment_tolerance : float
