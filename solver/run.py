@@ -22,7 +22,7 @@ from solver.options import FemCase, Loading
 from solver.periodic import PeriodicReduction, dof_node_grid_index
 from solver.results import FemResult
 from solver.solid import Solid
-from solver.stepping import LoadPath
+from solver.stepping import LoadPath, Outcome
 
 
 @dataclass(frozen=True, eq=False)
@@ -102,6 +102,46 @@ def run(case: FemCase, comm: MPI.Comm = MPI.COMM_WORLD, progress=None,
     -------
     FemRun
     """
+    runs = run_loads(case, [case.loading.load_star], comm, progress,
+                     xdmf_directory and Path(xdmf_directory))
+    return runs[0]
+
+
+def run_loads(case: FemCase, loads: Sequence[float], comm: MPI.Comm = MPI.COMM_WORLD,
+              progress=None, xdmf_directory=None, finished=None) -> list[FemRun]:
+    """The case at several normal loads, sharing one normal loading path.
+
+    The loads are taken in increasing order: the preload goes up to the smallest, the sliding
+    branches from there, the state returns to the end of that preload, the preload continues to
+    the next load, and so on. Each run's records are its own path (preload steps up to its load,
+    then its sliding). A run reached through a shared path differs from a standalone one only
+    by where the preload steps fall (path dependence of plasticity at step level; measured in
+    ``tests/test_solver_verification.py``). If the preload fails at one load, it and every
+    larger load are reported unconverged with the reason.
+
+    Parameters
+    ----------
+    case : FemCase
+        Surface, material, mesh, solver options and ``normal_only``; its load is ignored.
+    loads : sequence of float
+        Dimensionless normal loads F* [-].
+    comm : mpi4py.MPI.Comm
+        Communicator; every rank takes part.
+    progress : callable, optional
+        Receives one text line per step; default: stderr on rank 0.
+    xdmf_directory : str or pathlib.Path, optional
+        Fields of a single load go to ``DIRECTORY/fields.xdmf``; of several loads to
+        ``DIRECTORY/F<F*>/fields.xdmf``.
+    finished : callable, optional
+        Called on every rank as ``finished(index, fem_run)`` as soon as the run of
+        ``loads[index]`` is done (so that a caller can save it before the next one starts).
+
+    Returns
+    -------
+    list of FemRun
+        One per load, in the order of ``loads``. They share the model (``equilibrium``,
+        ``block``), which is left in the state of the last load computed.
+    """
     progress = progress or stderr_progress(comm)
     started = time.perf_counter()
     surface = case.surface
@@ -121,75 +161,58 @@ def run(case: FemCase, comm: MPI.Comm = MPI.COMM_WORLD, progress=None,
     progress(f"FEM {surface.name or 'surface'}: N={block.n}, {sizes['cells']} hexahedra in "
              f"{block.num_layers} layers, {sizes['reduced_dofs']} dofs, "
              f"{sizes['linear_solver']} solver, {comm.size} rank(s)")
-    set_up = time.perf_counter()
+    setup_s = time.perf_counter() - started
 
-    fields = FieldWriter(xdmf_directory, block, solid, flat) if xdmf_directory else None
     path = LoadPath(equilibrium, case, block.depth, progress)
-    outcome = path.preload()
-    maps = {}
-    if path.contact is not None:
-        maps["contact_normal"] = flat.gather_grid(path.contact.in_contact)
-        maps["pressure_normal"] = flat.gather_grid(path.contact.pressure)
-        if fields:
-            fields.write(0.0, path.contact)
-    preloaded = time.perf_counter()
-    if outcome.converged and not case.loading.normal_only:
-        normal_records = len(path.records)
-        outcome = path.slide()
-        if len(path.records) > normal_records:
-            maps["contact_sliding"] = flat.gather_grid(path.contact.in_contact)
-            maps["slip_sliding"] = flat.gather_grid(path.contact.slipping)
-            maps["pressure_sliding"] = flat.gather_grid(path.contact.pressure)
-            maps["shear_x_sliding"] = flat.gather_grid(path.contact.traction[:, 0])
+    preload_s = 0.0
+    preload = Outcome(True)
+    runs: list[FemRun | None] = [None] * len(loads)
+    order = sorted(range(len(loads)), key=lambda k: loads[k])
+    for position, index in enumerate(order):
+        load_case = replace(case, loading=Loading(loads[index], case.loading.normal_only))
+        if len(loads) > 1:
+            progress(f"load F* = {loads[index]:g}")
+        directory = xdmf_directory
+        if directory is not None and len(loads) > 1:
+            directory = Path(directory) / f"F{loads[index]:g}"
+        fields = FieldWriter(directory, block, solid, flat) if directory else None
+
+        time_mark = time.perf_counter()
+        if preload.converged:
+            preload = path.preload(load_case.normal_force)
+        preload_s += time.perf_counter() - time_mark
+        outcome = preload
+        maps = {}
+        if path.contact is not None:
+            maps["contact_normal"] = flat.gather_grid(path.contact.in_contact)
+            maps["pressure_normal"] = flat.gather_grid(path.contact.pressure)
             if fields:
-                fields.write(1.0, path.contact)
-    if fields:
-        fields.close()
-    finished = time.perf_counter()
+                fields.write(0.0, path.contact)
 
-    timings = {"setup_s": set_up - started, "preload_s": preloaded - set_up,
-               "sliding_s": finished - preloaded, "total_s": finished - started}
-    sizes["peak_memory_gb"] = comm.allreduce(peak_memory_gb(), op=MPI.SUM)
-    result = FemResult(path.records, outcome.converged, outcome.message,
-                       case.loading.normal_only, timings, sizes)
-    return FemRun(result, maps, equilibrium, block)
+        time_mark = time.perf_counter()
+        branch = path.branch_point()
+        if preload.converged and not case.loading.normal_only:
+            normal_records = len(path.records)
+            outcome = path.slide()
+            if len(path.records) > normal_records:
+                maps["contact_sliding"] = flat.gather_grid(path.contact.in_contact)
+                maps["slip_sliding"] = flat.gather_grid(path.contact.slipping)
+                maps["pressure_sliding"] = flat.gather_grid(path.contact.pressure)
+                maps["shear_x_sliding"] = flat.gather_grid(path.contact.traction[:, 0])
+                if fields:
+                    fields.write(1.0, path.contact)
+        if fields:
+            fields.close()
+        sliding_s = time.perf_counter() - time_mark
 
-
-def run_loads(case: FemCase, loads: Sequence[float], comm: MPI.Comm = MPI.COMM_WORLD,
-              progress=None, xdmf_directory=None, finished=None) -> list[FemRun]:
-    """The case at several normal loads: one run per load, in the order given.
-
-    Every run is ``case`` with its loading replaced by ``Loading(load, normal_only)``; the
-    result of each equals ``run`` of that case. (This is a plain loop; the normal loading path
-    is not yet shared between the loads.)
-
-    Parameters
-    ----------
-    case : FemCase
-        Surface, material, mesh, solver options and ``normal_only``; its load is ignored.
-    loads : sequence of float
-        Dimensionless normal loads F* [-].
-    comm : mpi4py.MPI.Comm
-        Communicator; every rank takes part in every run.
-    progress : callable, optional
-        Receives one text line per step; default: stderr on rank 0.
-    xdmf_directory : str or pathlib.Path, optional
-        Write the fields of the run at load F* to ``DIRECTORY/F<F*>/fields.xdmf``.
-    finished : callable, optional
-        Called on every rank as ``finished(index, fem_run)`` as soon as the run of
-        ``loads[index]`` is done (so that a caller can save it before the next one starts).
-
-    Returns
-    -------
-    list of FemRun
-        One per load, in the order of ``loads``.
-    """
-    runs = []
-    for index, load in enumerate(loads):
-        load_case = replace(case, loading=Loading(load, case.loading.normal_only))
-        fields = None if xdmf_directory is None else Path(xdmf_directory) / f"F{load:g}"
-        fem_run = run(load_case, comm, progress, fields)
+        timings = {"setup_s": setup_s, "preload_s": preload_s, "sliding_s": sliding_s,
+                   "total_s": setup_s + preload_s + sliding_s}
+        run_sizes = {**sizes, "peak_memory_gb": comm.allreduce(peak_memory_gb(), op=MPI.SUM)}
+        result = FemResult(list(path.records), outcome.converged, outcome.message,
+                           case.loading.normal_only, timings, run_sizes)
+        runs[index] = FemRun(result, maps, equilibrium, block)
         if finished is not None:
-            finished(index, fem_run)
-        runs.append(fem_run)
+            finished(index, runs[index])
+        if position < len(order) - 1:
+            path.return_to(branch)
     return runs

@@ -95,7 +95,22 @@ class LoadPath:
         self.records: list[StepRecord] = []
         self.attempts = 0
         self.contact: ContactResponse | None = None  # at the last converged step
+        self.normal_force = 0.0  # preload reached [N]
         self._started = time.perf_counter()
+
+    def branch_point(self) -> tuple:
+        """The current converged state (after a preload), to :meth:`return_to` after sliding:
+        several loads share one normal loading path and branch their sliding from it."""
+        return (self.equilibrium.committed_state(), len(self.records), self.contact,
+                self.normal_force, self.attempts, time.perf_counter())
+
+    def return_to(self, point: tuple) -> None:
+        """Undo everything after :meth:`branch_point`: state, records and step count; the
+        branch's wall time is not counted in later records."""
+        state, num_records, self.contact, self.normal_force, self.attempts, taken = point
+        self.equilibrium.resume(state)
+        del self.records[num_records:]
+        self._started += time.perf_counter() - taken
 
     @property
     def flat_block_slide(self) -> float:
@@ -103,34 +118,35 @@ class LoadPath:
         material = self.case.material
         return material.tau_c * self.depth / material.shear_modulus
 
-    def preload(self) -> Outcome:
-        """Frictionless normal loading to F_n in adaptive increments of the load."""
-        target = self.case.normal_force
+    def preload(self, target: float) -> Outcome:
+        """Frictionless normal loading from the current preload (0 at first) to ``target`` [N]
+        in adaptive increments of the load."""
         options = self.case.solver
         largest = 1.0 if options.elastic else MAX_PRELOAD_INCREMENT  # elastic: path-free
         size = StepSize(1.0 / options.normal_increments, largest)
-        fraction = 0.0
-        while fraction < 1.0:
-            trial = min(1.0, fraction + size.value)
-            if fraction == 0.0:
+        while self.normal_force < target:
+            start = self.normal_force / target
+            trial = min(1.0, start + size.value)
+            if self.normal_force == 0.0:
                 self.equilibrium.place_flat(trial * target)
             report = self._attempt(trial * target, 0.0, friction=False)
             if report is None:
-                return Outcome(False, f"step limit reached during preload at F_n = {fraction:.4g}"
+                return Outcome(False, f"step limit reached during preload at F_n = {start:.4g}"
                                       " x target")
             if not report.converged:
                 if not size.cut():
-                    return Outcome(False, f"preload did not converge beyond {fraction:.4g} x F_n "
+                    return Outcome(False, f"preload did not converge beyond {start:.4g} x F_n "
                                           f"(Newton residual {report.residual:.2e} F_n)")
                 continue
-            fraction = trial
+            self.normal_force = trial * target
             self._accept("normal", report, 0.0)
             size.after(report)
         return Outcome(True)
 
     def slide(self) -> Outcome:
-        """Tangential steps of the flat at constant F_n until every contact node slips."""
-        target = self.case.normal_force
+        """Tangential steps of the flat at the preload's constant F_n until every contact node
+        slips."""
+        target = self.normal_force
         scale = self.flat_block_slide
         size = StepSize(self.case.solver.first_slide * scale, MAX_SLIDE_INCREMENT * scale)
         slide = 0.0
@@ -188,6 +204,7 @@ class LoadPath:
             newton_iterations=report.iterations,
             krylov_iterations=report.krylov_iterations,
             wall_s=time.perf_counter() - self._started,
+            cuts=self.attempts - 1 - sum(record.cuts + 1 for record in self.records),
         )
         self.records.append(record)
         self.progress(record.summary())
