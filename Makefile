@@ -17,7 +17,8 @@ MPIRUN := mpirun -n $(NP) --oversubscribe
 DEBIAN_PACKAGES := python3-dolfinx-real python3-petsc4py-real python3-mpi4py python3-gmsh \
 	python3-h5py python3-scipy python3-matplotlib python3-venv libopenblas0-serial
 
-.PHONY: setup test lint figures gallery bench bench-multiscale clean
+.PHONY: setup test lint figures gallery bench bench-multiscale bench-fem bench-error \
+	bench-error-quick stress clean
 
 # --- set-up -----------------------------------------------------------------------------
 $(VENV)/.apt-done:
@@ -30,11 +31,11 @@ $(VENV)/.apt-done:
 	fi
 	@mkdir -p $(VENV) && touch $@
 
-$(VENV)/bin/python: $(VENV)/.apt-done
+$(VENV)/pyvenv.cfg: $(VENV)/.apt-done
 	@/usr/bin/python3 -m venv --system-site-packages $(VENV)
 
 # pip must never replace Debian's numpy: pin it to the version Debian installed.
-$(VENV)/.installed: pyproject.toml $(VENV)/bin/python
+$(VENV)/.installed: pyproject.toml $(VENV)/pyvenv.cfg
 	@/usr/bin/python3 -c 'import numpy; print(f"numpy=={numpy.__version__}")' > $(VENV)/constraints.txt
 	@$(PY) -m pip install -q --disable-pip-version-check -c $(VENV)/constraints.txt -e '.[dev]'
 	@touch $@
@@ -78,7 +79,29 @@ gallery: figures
 bench-multiscale: setup
 	@$(VENV)/bin/roughfriction bench multiscale
 
-bench: bench-multiscale
+# G5 at F* = 0.155 with N = 32, 64, 128 on $(NP) ranks -> results/bench/fem.csv
+bench-fem: setup
+	@$(PY) -m solver.benchmark --n 32 64 128 --ranks $(NP)
+
+# Run time against error (solver/convergence.py): G5 at F* = 0.155 and 0.93, 2L at 0.5 and the
+# elastic sinusoid, at N = 16, 32, 64, 128, a 64^2 surface on 128 and each knob alone at N = $(N),
+# through the run cache on $(NP) ranks -> results/bench/error.{csv,png}, copied to docs/bench/.
+# `make bench-error-quick`: the same at N = 8 and 16, to results/bench/quick/ (not copied).
+bench-error: setup
+	@$(MPIRUN) $(PY) -m solver.convergence --base-n $(N)
+	@mkdir -p docs/bench && cp results/bench/error.csv results/bench/error.png docs/bench/
+
+bench-error-quick: setup
+	@$(MPIRUN) $(PY) -m solver.convergence --quick
+
+bench: bench-multiscale bench-fem bench-error
+
+# Stress matrix (solver/stress.py): G1-G9 x F* 0.01-1.86, ST400 test3, penalty and step size
+# on G5, N = $(N), $(NP) ranks -> results/bench/stress.{csv,md}, copied to docs/bench/ unless a
+# run failed silently (then the command exits 1).
+stress: setup
+	@$(MPIRUN) $(PY) -m solver.stress --n $(N)
+	@mkdir -p docs/bench && cp results/bench/stress.csv results/bench/stress.md docs/bench/
 
 clean:
 	rm -rf results .cache .pytest_cache

@@ -71,4 +71,13 @@ def bench_multiscale(repeats: int = 7) -> dict:
     }
 
 
-BENCHMARKS = {"multiscale": bench_multiscale}
+def bench_fem() -> dict:
+    """FEM benchmark (G5, F* = 0.155, N = 32, 64, 128 on 2 ranks): see :mod:`solver.benchmark`."""
+    from solver.benchmark import BENCH_DIR as FEM_DIR
+    from solver.benchmark import benchmark_sizes
+
+    rows = benchmark_sizes([32, 64, 128], ranks=2)
+    return {"runs": rows, "csv": str(FEM_DIR / "fem.csv")}
+
+
+BENCHMARKS = {"multiscale": bench_multiscale, "fem": bench_fem}

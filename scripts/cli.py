@@ -246,7 +246,7 @@ def build_parser() -> argparse.ArgumentParser:
     figure.set_defaults(run=cmd_figure)
 
     bench = commands.add_parser("bench", help="benchmarks; numbers go to results/bench/")
-    bench.add_argument("name", help="which benchmark (multiscale)")
+    bench.add_argument("name", help="which benchmark (multiscale, fem)")
     bench.add_argument("--json", action="store_true", help="one JSON object on stdout")
     bench.set_defaults(run=cmd_bench)
     return parser

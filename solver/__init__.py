@@ -13,7 +13,9 @@ Read in this order (the paper's procedure):
 * ``command``      the ``fem`` command line; ``benchmark`` G5 timings for several N
 * ``cache``        the run cache: each run once, keyed by its inputs and the physics sources
 * ``post``         reading a results file with h5py (``roughfriction post``, the figures)
+* ``convergence``  run time against error (``make bench-error``); ``stress`` the stress matrix
+  (``make stress``); ``batch`` runs them through the cache, group by group
 
-``material``, ``plasticity``, ``options``, ``results``, ``command``, ``cache`` and ``post``
-import without dolfinx.
+``material``, ``plasticity``, ``options``, ``results``, ``command``, ``cache``, ``post``,
+``batch``, ``convergence`` and ``stress`` import without dolfinx.
 """

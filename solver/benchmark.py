@@ -32,13 +32,14 @@ def run_size(n: int, ranks: int) -> dict:
     command = ["mpirun", "-n", str(ranks), "--oversubscribe", sys.executable, "-m",
                "solver.command", SURFACE, "--load", str(LOAD), "--n", str(n), "--json",
                "--output", str(output)]
-    finished = subprocess.run(command, capture_output=True, text=True)
+    output.unlink(missing_ok=True)
+    finished = subprocess.run(command, stdout=subprocess.DEVNULL)  # progress, errors: stderr
+    if not output.exists():
+        raise RuntimeError(f"N = {n}: run failed (exit {finished.returncode}) without results")
     with h5py.File(output) as h5:
         summary = json.loads(h5.attrs["summary"])
         sizes = {key: value.item() if isinstance(value, np.generic) else value
                  for key, value in h5["sizes"].attrs.items()}
-    if finished.returncode != 0:
-        print(finished.stderr.strip().splitlines()[-1], file=sys.stderr)
     row = {"n": n, "ranks": ranks, **{key: sizes.get(key) for key in
                                       ("cells", "reduced_dofs", "linear_solver",
                                        "peak_memory_gb")}}
@@ -55,6 +56,17 @@ def write_csv(rows: list[dict], path: Path) -> None:
         writer.writerows(rows)
 
 
+def benchmark_sizes(sizes: list[int], ranks: int) -> list[dict]:
+    """Run every grid size in turn; rewrite ``fem.csv`` after each; return the rows."""
+    BENCH_DIR.mkdir(parents=True, exist_ok=True)
+    rows = []
+    for n in sizes:
+        rows.append(run_size(n, ranks))
+        write_csv(rows, BENCH_DIR / "fem.csv")
+        print(json.dumps(rows[-1]), file=sys.stderr, flush=True)
+    return rows
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m solver.benchmark", description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -62,12 +74,7 @@ def main(argv: list[str] | None = None) -> int:
                         help="surface cells per side (default 32 64 128)")
     parser.add_argument("--ranks", type=int, default=2, help="MPI ranks (default 2)")
     args = parser.parse_args(argv)
-    BENCH_DIR.mkdir(parents=True, exist_ok=True)
-    rows = []
-    for n in args.n:
-        rows.append(run_size(n, args.ranks))
-        write_csv(rows, BENCH_DIR / "fem.csv")
-        print(json.dumps(rows[-1]), flush=True)
+    benchmark_sizes(args.n, args.ranks)
     return 0
 
 

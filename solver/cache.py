@@ -37,8 +37,10 @@ ROOT = Path(__file__).resolve().parent.parent
 #: Environment variable naming the cache directory (default ``results/runs``).
 RUNS_VARIABLE = "ROUGHFRICTION_RUNS"
 DEFAULT_RUNS = Path("results/runs")
-#: Modules of ``solver/`` that do not change results (command line, cache, reading, timing).
-NOT_PHYSICS = ("benchmark.py", "cache.py", "command.py", "post.py")
+#: Modules of ``solver/`` that do not change results (command line, cache, reading, timing,
+#: the run-time-vs-error benchmark and the stress matrix).
+NOT_PHYSICS = ("batch.py", "benchmark.py", "cache.py", "command.py", "convergence.py", "post.py",
+               "stress.py")
 #: Layout version of an entry (bumped when what an entry holds changes).
 ENTRY_FORMAT = 1
 

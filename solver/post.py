@@ -23,6 +23,8 @@ from solver.results import StepRecord
 REQUIRED_ATTRIBUTES = ("inputs", "summary", "converged", "message")
 #: Step datasets every results file has (one per StepRecord field).
 STEP_FIELDS = tuple(field.name for field in fields(StepRecord))
+#: Step datasets added later: read where present (older files lack them).
+OPTIONAL_STEP_FIELDS = ("cuts",)
 
 
 @dataclass(frozen=True)
@@ -42,7 +44,8 @@ class RunFile:
     message : str
         Why not, if not converged.
     steps : dict
-        StepRecord field -> array over the converged steps (SI units; "phase" as str).
+        StepRecord field -> array over the converged steps (SI units; "phase" as str;
+        ``cuts`` only in files written since it was recorded).
     maps : dict
         Name -> N x N array ([i, j] at x = i h, y = j h): contact flags (bool), pressures and
         shear [Pa], ``surface_heights`` [m] when recorded.
@@ -118,11 +121,13 @@ def read_run(path) -> RunFile:
     try:
         with h5py.File(path, "r") as h5:
             missing = [name for name in REQUIRED_ATTRIBUTES if name not in h5.attrs]
-            missing += [f"steps/{name}" for name in STEP_FIELDS if f"steps/{name}" not in h5]
+            missing += [f"steps/{name}" for name in STEP_FIELDS
+                        if f"steps/{name}" not in h5 and name not in OPTIONAL_STEP_FIELDS]
             if missing:
                 raise InputError(f"{path} is not a roughfriction FEM results file (no "
                                  f"{', '.join(missing[:3])})")
-            steps = {name: h5["steps"][name][()] for name in STEP_FIELDS}
+            steps = {name: h5["steps"][name][()] for name in STEP_FIELDS
+                     if f"steps/{name}" in h5}
             steps["phase"] = np.array([_plain(value) for value in steps["phase"]], dtype=str)
             return RunFile(
                 path=path,

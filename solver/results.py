@@ -44,6 +44,8 @@ class StepRecord:
         Krylov iterations of the step [-].
     wall_s : float
         Wall time since the start of loading [s].
+    cuts : int
+        Failed attempts (step cuts) just before this step was accepted [-].
     """
 
     phase: str
@@ -59,6 +61,7 @@ class StepRecord:
     newton_iterations: int
     krylov_iterations: int
     wall_s: float
+    cuts: int = 0
 
     def summary(self) -> str:
         """One progress line."""
@@ -92,6 +95,17 @@ def count_patches(contact: np.ndarray) -> int:
             if a and b:
                 parent[root(a)] = root(b)
     return len({root(label) for label in range(1, count + 1)})
+
+
+#: The paper's reliability criterion: at least this many contact nodes per patch [-].
+RELIABLE_NODES_PER_PATCH = 4
+
+
+def nodes_per_patch(record: StepRecord | None) -> float | None:
+    """Contact nodes per contact patch of a step [-]; None without a step or without contact."""
+    if record is None or record.contact_patches == 0:
+        return None
+    return record.contact_nodes / record.contact_patches
 
 
 @dataclass(frozen=True)
@@ -135,9 +149,15 @@ class FemResult:
         return inception.tangential_force / inception.normal_force
 
     def summary(self) -> dict:
-        """The JSON dict of the command line (SI units; None where not reached)."""
+        """The JSON dict of the command line (SI units; None where not reached).
+
+        Contact nodes, patches and ``nodes_per_patch`` are those at inception, else at the end
+        of the preload; ``reliable``: ``nodes_per_patch`` >= :data:`RELIABLE_NODES_PER_PATCH`
+        (None without contact). ``cut_steps``: failed attempts before accepted steps.
+        """
         preload, inception = self._last("normal"), self._last("tangential")
         sliding = self.mu_s is not None
+        per_patch = nodes_per_patch(inception if sliding else preload)
         return {
             "mu_s": self.mu_s,
             "Ft_max": inception.tangential_force if sliding else None,
@@ -149,7 +169,10 @@ class FemResult:
             "contact_nodes": (inception if sliding else preload).contact_nodes if preload else 0,
             "contact_patches": ((inception if sliding else preload).contact_patches
                                 if preload else 0),
+            "nodes_per_patch": per_patch,
+            "reliable": None if per_patch is None else per_patch >= RELIABLE_NODES_PER_PATCH,
             "steps": len(self.records),
+            "cut_steps": sum(record.cuts for record in self.records),
             "newton_iterations": sum(record.newton_iterations for record in self.records),
             "wall_s": self.timings.get("total_s"),
             "converged": self.converged,

@@ -1,0 +1,180 @@
+"""Batches of FEM runs for the benchmarks (:mod:`solver.convergence`, :mod:`solver.stress`).
+
+Every run goes through the run cache (:func:`solver.cache.cached_results`), one cache call per
+group of runs that differ only in the load (they share one normal loading path), the groups of
+the smallest surface grids first. Before each group the peak resident memory of every rank is
+reset, so that the ``peak_memory_gb`` a run records is that of its own group, not of the
+largest run computed earlier in the same process. A group that cannot start (an inverted mesh:
+an :class:`~geometry.errors.InputError`, raised on every rank) is recorded with its message
+instead of ending the batch; any other exception ends it (finished runs stay in the cache).
+
+Imports without dolfinx; :func:`compute_batch` needs mpi4py and, for missing runs, the FEM.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+from collections import Counter
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+from geometry.errors import InputError
+from solver.cache import (
+    cached_results,
+    finished_entry,
+    group_key,
+    physics_version,
+    run_key,
+    runs_directory,
+)
+from solver.options import FemCase
+
+#: Where the benchmark tables and plots go.
+BENCH_DIR = Path("results/bench")
+#: Summary keys of a results file copied into the benchmark tables (units in the run summary:
+#: areas and growth [-], wall time [s]).
+SUMMARY_COLUMNS = ("converged", "mu_s", "area_ratio_normal", "area_ratio_sliding",
+                   "junction_growth", "contact_nodes", "contact_patches", "nodes_per_patch",
+                   "reliable", "steps", "cut_steps", "newton_iterations")
+
+
+@dataclass(frozen=True)
+class BatchResult:
+    """Where the results of one case of a batch are.
+
+    Attributes
+    ----------
+    path : pathlib.Path or None
+        Its results file (a run-cache entry); None if its run could not start.
+    error : str
+        Why it could not start ("" when there is a results file).
+    """
+
+    path: Path | None
+    error: str = ""
+
+
+def reset_peak_memory() -> bool:
+    """Reset this process's peak resident memory (what ``ru_maxrss`` reports) to its current
+    size (Linux: "5" written to /proc/self/clear_refs); False where that is not possible (the
+    peaks then accumulate over the process)."""
+    try:
+        Path("/proc/self/clear_refs").write_text("5")
+    except OSError:
+        return False
+    return True
+
+
+def batch_groups(cases: Sequence[FemCase]) -> list[list[int]]:
+    """Indices of ``cases`` grouped by everything but the load (:func:`solver.cache.group_key`),
+    the groups ordered by surface cells per side N (smallest first), then by first appearance.
+    """
+    groups: dict[str, list[int]] = {}
+    for index, case in enumerate(cases):
+        groups.setdefault(group_key(case), []).append(index)
+    return sorted(groups.values(), key=lambda members: cases[members[0]].surface.n)
+
+
+def compute_batch(cases: Sequence[FemCase], comm, directory=None,
+                  progress=None) -> list[BatchResult]:
+    """The results file of every case, computing the missing runs group by group.
+
+    Parameters
+    ----------
+    cases : sequence of FemCase
+        The runs (repeats allowed).
+    comm : mpi4py.MPI.Comm
+        Every rank computes; call on all of them.
+    directory : str or pathlib.Path, optional
+        The run cache (default :func:`solver.cache.runs_directory`).
+    progress : callable, optional
+        Receives the progress lines (rank 0); default stderr.
+
+    Returns
+    -------
+    list of BatchResult
+        One per case, in order.
+    """
+    results: list[BatchResult | None] = [None] * len(cases)
+    for members in batch_groups(cases):
+        reset_peak_memory()
+        try:
+            paths = cached_results([cases[index] for index in members], comm, progress,
+                                   directory)
+            found = [BatchResult(path) for path in paths]
+        except InputError as error:
+            found = [BatchResult(None, str(error))] * len(members)
+        for index, result in zip(members, found, strict=True):
+            results[index] = result
+    return results
+
+
+def batch_plan(cases: Sequence[FemCase], directory=None) -> list[str]:
+    """What :func:`compute_batch` would do, as text lines: per N, the distinct runs, how many
+    are in the cache, and the runs and groups (``run_loads`` calls) left to compute."""
+    directory = runs_directory(directory)
+    physics = physics_version()
+    distinct = {run_key(case, physics): case for case in cases}
+    missing = [case for case in distinct.values()
+               if finished_entry(directory, case, physics) is None]
+    runs = Counter(case.surface.n for case in distinct.values())
+    to_run = Counter(case.surface.n for case in missing)
+    groups = Counter(case.surface.n for case in {group_key(case): case
+                                                 for case in missing}.values())
+    lines = [f"{'N':>5} {'runs':>5} {'cached':>7} {'to run':>7} {'groups':>7}"]
+    for n in sorted(runs):
+        lines.append(f"{n:>5} {runs[n]:>5} {runs[n] - to_run[n]:>7} {to_run[n]:>7} "
+                     f"{groups[n]:>7}")
+    lines.append(f"{'all':>5} {len(distinct):>5} {len(distinct) - len(missing):>7} "
+                 f"{len(missing):>7} {sum(groups.values()):>7}   (cache: {directory})")
+    return lines
+
+
+def summary_columns(run) -> dict:
+    """The columns every benchmark table takes from a results file.
+
+    Parameters
+    ----------
+    run : solver.post.RunFile or None
+        The run (None: it did not start).
+
+    Returns
+    -------
+    dict
+        :data:`SUMMARY_COLUMNS` from the run's summary (None where absent), ``message``,
+        ``wall_s`` (total wall time [s]), ``peak_memory_gb`` (summed over ranks [GB]) and
+        ``ranks``.
+    """
+    if run is None:
+        return {**dict.fromkeys(SUMMARY_COLUMNS), "converged": False, "message": "",
+                "wall_s": None, "peak_memory_gb": None, "ranks": None}
+    columns = {key: run.summary.get(key) for key in SUMMARY_COLUMNS}
+    columns["converged"] = run.converged
+    columns.update(message=run.message, wall_s=run.timings.get("total_s"),
+                   peak_memory_gb=run.sizes.get("peak_memory_gb"), ranks=run.sizes.get("ranks"))
+    return columns
+
+
+def csv_text(rows: Sequence[dict], columns: Sequence[str]) -> str:
+    """Rows as CSV text: floats to 10 significant digits, None as an empty field, quoted
+    where needed (messages contain commas)."""
+    def cell(value):
+        if value is None:
+            return ""
+        return f"{value:.10g}" if isinstance(value, float) else value
+
+    buffer = io.StringIO()
+    writer = csv.writer(buffer, lineterminator="\n")
+    writer.writerow(columns)
+    for row in rows:
+        writer.writerow([cell(row.get(column)) for column in columns])
+    return buffer.getvalue()
+
+
+def write_text(path: Path, text: str) -> None:
+    """Write a file atomically (temporary name, then rename)."""
+    from scripts.figures import _atomic_write
+
+    _atomic_write(Path(path), lambda temporary: Path(temporary).write_text(text))

@@ -1,0 +1,322 @@
+"""Stress matrix (solver/stress.py): classification, reliability, tables on synthetic data; the
+step-cut count of the load path with a scripted stand-in for the equilibrium; one tiny
+end-to-end matrix (N = 8, serial, a temporary run cache) with runs that must fail loudly."""
+
+import csv
+import math
+import types
+
+import numpy as np
+import pytest
+
+from geometry.surface import Surface
+from solver.options import FemCase, Loading, SolverOptions
+from solver.results import FemResult, StepRecord
+from solver.stress import (
+    CUT,
+    DIRECT,
+    FAILED,
+    OUTCOMES,
+    SILENT,
+    UNRELIABLE_MARK,
+    StressRun,
+    add_changes,
+    cell_text,
+    classify,
+    default_runs,
+    load_runs,
+    matrix_table,
+    measured_surface,
+    option_runs,
+    outcome_counts,
+    run_stress,
+    stress_markdown,
+    stress_row,
+    surface_data_directory,
+)
+
+SPACING = 1e-6
+
+
+def record(phase, nodes=8, patches=2, slipping=0, cuts=0, fn=1.0, ft=0.0):
+    return StepRecord(phase, fn, ft, 0.0, 0.0, nodes / 64, nodes, patches, slipping, 0.0, 3, 0,
+                      0.1, cuts)
+
+
+# --- the run summary: cut steps and reliability ----------------------------------------------
+
+def test_summary_counts_cut_steps_and_nodes_per_patch_at_inception():
+    records = [record("normal", cuts=2), record("normal", nodes=9, patches=3),
+               record("tangential", nodes=12, patches=4, slipping=5, cuts=1, ft=0.3),
+               record("tangential", nodes=12, patches=4, slipping=12, ft=0.4)]
+    summary = FemResult(records, True, "", False, {}, {}).summary()
+    assert summary["cut_steps"] == 3
+    assert summary["nodes_per_patch"] == 3.0 and summary["reliable"] is False  # 12 / 4 < 4
+    assert summary["mu_s"] == pytest.approx(0.4)
+
+
+def test_normal_only_and_unconverged_runs_report_the_preload_state():
+    records = [record("normal", nodes=8, patches=2)]
+    assert FemResult(records, True, "", True, {}, {}).summary()["reliable"] is True  # 4 per patch
+    failed = FemResult(records + [record("tangential", nodes=20, patches=1)], False,
+                       "step limit", False, {}, {}).summary()
+    assert failed["mu_s"] is None and failed["nodes_per_patch"] == 4.0
+    empty = FemResult([], False, "preload did not converge", False, {}, {}).summary()
+    assert empty["nodes_per_patch"] is None and empty["reliable"] is None
+    assert empty["cut_steps"] == 0
+    no_contact = FemResult([record("normal", nodes=0, patches=0)], True, "", True, {}, {})
+    assert no_contact.summary()["reliable"] is None
+
+
+# --- the step-cut count of the load path ------------------------------------------------------
+
+class ScriptedEquilibrium:
+    """Stands in for solver.equilibrium.Equilibrium: Newton fails on the listed attempts (1, 2,
+    ...), converges in 3 iterations otherwise; 4 surface nodes, all in contact, all slipping
+    once the flat slides."""
+
+    def __init__(self, failing):
+        self.failing, self.calls = set(failing), 0
+        self.flat_height = 0.0
+        self.solid = types.SimpleNamespace(plastic_volume_fraction=lambda: 0.0)
+        self.flat = types.SimpleNamespace(
+            gather_grid=lambda values: np.asarray(values).reshape(2, 2),
+            normal_force=lambda contact: contact.fn,
+            tangential_force=lambda contact: 0.5 * contact.fn if contact.slide else 0.0,
+            count=lambda flags: int(np.count_nonzero(flags)))
+
+    def solve(self, normal_force, slide, friction):
+        from solver.equilibrium import NewtonReport
+
+        self.calls += 1
+        contact = types.SimpleNamespace(fn=normal_force, slide=slide,
+                                        in_contact=np.ones(4, bool),
+                                        slipping=np.full(4, slide > 0))
+        return NewtonReport(self.calls not in self.failing, 3, 0, 1e-3, contact)
+
+    def place_flat(self, normal_force):
+        pass
+
+    def restore(self):
+        pass
+
+    def commit(self, contact):
+        pass
+
+    def committed_state(self):
+        return None
+
+    def resume(self, state):
+        pass
+
+
+@pytest.mark.fem
+def test_load_path_records_the_cuts_before_each_step_also_across_a_branch():
+    pytest.importorskip("dolfinx")  # solver.stepping imports the equilibrium module
+    from solver.stepping import LoadPath
+
+    case = FemCase(Surface(np.zeros((4, 4)), SPACING, "flat"), Loading(0.5))
+    equilibrium = ScriptedEquilibrium(failing={2, 3, 10, 13})
+    path = LoadPath(equilibrium, case, 4 * SPACING, progress=lambda line: None)
+    target = case.normal_force
+    assert path.preload(0.5 * target).converged  # calls 2 and 3 cut the second step twice
+    assert [r.cuts for r in path.records] == [0, 2, 0, 0, 0, 0, 0]
+    branch = path.branch_point()
+    assert path.slide().converged  # call 10 cut, 11 accepted at inception
+    assert [r.cuts for r in path.records[7:]] == [1]
+    assert FemResult(list(path.records), True, "", False, {}, {}).summary()["cut_steps"] == 3
+    path.return_to(branch)
+    assert path.preload(target).converged  # call 12 accepted, 13 cut, 14 accepted, ...
+    assert [r.cuts for r in path.records[:7]] == [0, 2, 0, 0, 0, 0, 0]
+    assert [r.cuts for r in path.records[7:9]] == [0, 1]
+    assert sum(r.cuts for r in path.records) == path.attempts - len(path.records) == 3
+
+
+# --- classification --------------------------------------------------------------------------
+
+GOOD = {"converged": True, "message": "", "mu_s": 0.4, "normal_only": False, "cut_steps": 0,
+        "inception": True, "force_error": 1e-9, "reliable": True}
+
+
+@pytest.mark.parametrize("changes, outcome, problem", [
+    ({}, DIRECT, None),
+    ({"cut_steps": 3}, CUT, None),
+    ({"normal_only": True, "mu_s": None, "inception": None}, DIRECT, None),
+    ({"converged": False, "mu_s": None, "message": "tangential step did not converge"}, FAILED,
+     None),
+    ({"converged": False, "mu_s": None, "message": "  "}, SILENT, "no message"),
+    ({"converged": False, "message": "step limit"}, SILENT, "unconverged run"),
+    ({"mu_s": None}, SILENT, "without mu_s"),
+    ({"inception": False}, SILENT, "before every contact node slips"),
+    ({"inception": None}, SILENT, "before every contact node slips"),
+    ({"force_error": 2e-3}, SILENT, "off its target"),
+    ({"mu_s": math.nan}, SILENT, "not a positive number"),
+    ({"mu_s": -0.1}, SILENT, "not a positive number"),
+])
+def test_classify(changes, outcome, problem):
+    got, problems = classify({**GOOD, **changes})
+    assert got == outcome
+    if problem is None:
+        assert problems == []
+    else:
+        assert any(problem in text for text in problems), problems
+
+
+def test_a_run_that_did_not_start_fails_loudly_only_with_a_message():
+    run = StressRun("measured", "ST400 test3", 0.155, error="no such file: test3.txt")
+    assert stress_row(run, 32, None)["outcome"] == FAILED
+    assert stress_row(StressRun("matrix", "G1", 0.155), 32, None)["outcome"] == SILENT
+
+
+# --- building the runs -----------------------------------------------------------------------
+
+def flat_case(load=0.155):
+    return FemCase(Surface(np.zeros((4, 4)), SPACING, "flat"), Loading(load))
+
+
+def test_option_runs_multiply_the_default_and_keep_the_rest():
+    runs = option_runs("penalty", flat_case(), (0.01, 0.155), (0.01, 100.0))
+    assert [(r.factor, r.load_star) for r in runs] == [(0.01, 0.01), (0.01, 0.155),
+                                                       (100.0, 0.01), (100.0, 0.155)]
+    default = SolverOptions()
+    assert runs[0].case.solver.penalty == pytest.approx(0.01 * default.penalty)
+    assert runs[-1].case.solver.first_slide == default.first_slide
+    assert runs[1].case.loading == Loading(0.155)
+    steps = option_runs("step", flat_case(), (0.155,), (4.0,))
+    assert steps[0].case.solver.first_slide == pytest.approx(4 * default.first_slide)
+
+
+def test_default_runs_are_the_declared_matrix_and_variants():
+    runs = default_runs(8)
+    kinds = [r.kind for r in runs]
+    assert kinds.count("matrix") == 36 and kinds.count("measured") == 4
+    assert kinds.count("penalty") == kinds.count("step") == 8
+    assert {r.case.surface.n for r in runs if r.case is not None} == {8}
+    g1 = [r for r in runs if r.surface == "G1" and r.load_star == 1.86]
+    assert len(g1) == 1  # near-complete contact is in the matrix
+
+
+def test_measured_surface_is_resampled_or_its_absence_explained(tmp_path, monkeypatch):
+    if (surface_data_directory() / "nanovea_st400" / "test3.txt").is_file():
+        surface, error = measured_surface(8)
+        assert error == "" and surface.n == 8 and surface.name == "test3"
+    monkeypatch.setenv("ROUGHFRICTION_SURFACE_DATA", str(tmp_path))
+    surface, error = measured_surface(8)
+    assert surface is None and "not available" in error and "test3.txt" in error
+    runs = load_runs("measured", "ST400 test3", surface, (0.01, 0.155), error)
+    assert [r.case for r in runs] == [None, None] and runs[0].error == error
+
+
+# --- tables ----------------------------------------------------------------------------------
+
+def row(surface, load, outcome=DIRECT, mu_s=0.5, kind="matrix", factor=1.0, reliable=True,
+        cut_steps=0, message=""):
+    facts = {"converged": outcome in (DIRECT, CUT), "message": message, "mu_s": mu_s,
+             "reliable": reliable, "cut_steps": cut_steps, "ranks": 2}
+    option = {"penalty": "penalty", "step": "first_slide"}.get(kind, "")
+    return {"kind": kind, "surface": surface, "n": 32, "load_star": load, "option": option,
+            "factor": factor, **facts, "outcome": outcome, "problems": ""}
+
+
+def synthetic_table():
+    rows = [row("G1", 0.01, reliable=False, mu_s=0.9),
+            row("G1", 0.155, CUT, cut_steps=2),
+            row("G5", 0.01, FAILED, mu_s=None, message="preload did not converge beyond 0.5"),
+            row("G5", 0.155, mu_s=0.4),
+            row("G5", 0.155, kind="penalty", factor=100.0, mu_s=0.41),
+            row("G5", 0.01, kind="penalty", factor=100.0, mu_s=0.3)]
+    add_changes(rows)
+    return rows
+
+
+def test_changes_are_against_the_matrix_run_of_the_same_surface_and_load():
+    rows = synthetic_table()
+    assert rows[4]["mu_s_change"] == pytest.approx(0.41 / 0.4 - 1)
+    assert rows[5]["mu_s_change"] is None  # its baseline failed
+    assert rows[3]["mu_s_change"] is None  # a matrix run has no change
+
+
+def test_cells_show_mu_s_cuts_failures_and_unreliability():
+    rows = synthetic_table()
+    assert cell_text(rows[0]) == f"0.900 {UNRELIABLE_MARK}"
+    assert cell_text(rows[1]) == "0.500 (2 cuts)"
+    assert cell_text(rows[2]) == "FAILED"
+    assert cell_text(rows[4]) == "0.410 (+2.5 %)"
+    assert cell_text({**rows[3], "outcome": SILENT}) == "**SILENT**"
+
+
+def test_matrix_table_has_a_row_per_surface_and_a_column_per_load():
+    lines = matrix_table(synthetic_table(), (0.01, 0.155, 0.62))
+    assert lines[0] == "| surface | F* = 0.01 | F* = 0.155 | F* = 0.62 |"
+    assert lines[1] == "|---|---|---|---|"
+    assert lines[2] == f"| G1 | 0.900 {UNRELIABLE_MARK} | 0.500 (2 cuts) | – |"
+    assert lines[3] == "| G5 | FAILED | 0.400 | – |"
+    assert len(lines) == 4
+
+
+def test_markdown_counts_outcomes_lists_failures_and_the_reliable_region():
+    rows = synthetic_table()
+    counts = outcome_counts(rows)
+    assert [counts[o] for o in OUTCOMES] == [4, 1, 1, 0]
+    text = stress_markdown(rows, 32, (0.01, 0.155))
+    assert "Outcomes of all 6 runs: 4 converged directly, 1 converged after step cutting, " \
+           "1 failed loudly, 0 SILENT FAILURE." in text
+    assert "- G5 F*=0.01: failed loudly: preload did not converge beyond 0.5" in text
+    assert "| defaults | x1 | FAILED | 0.400 |" in text
+    assert "| penalty | x100 | 0.300 | 0.410 (+2.5 %) |" in text
+    assert "- F* = 0.01: 0 of 2 reliable" in text
+    assert "- F* = 0.155: 2 of 2 reliable (G1, G5)" in text
+    assert "2 rank(s)" in text
+
+
+# --- end to end ------------------------------------------------------------------------------
+
+def rough_surface(name, seed=7):
+    return Surface(np.random.default_rng(seed).normal(0.0, 0.1 * SPACING, (8, 8)), SPACING, name)
+
+
+@pytest.mark.fem
+def test_tiny_stress_matrix_end_to_end(tmp_path):
+    """A rough 8 x 8 surface at two loads (one group), penalty x10, a run stopped by its
+    step limit, a surface whose mesh inverts, a measured surface that is missing: the runs
+    converge, the rest fail loudly with their reasons, nothing fails silently."""
+    pytest.importorskip("dolfinx")
+    from dataclasses import replace
+
+    from mpi4py import MPI
+
+    surface = rough_surface("R")
+    base = FemCase(surface, Loading(0.155))
+    limited = replace(base, solver=SolverOptions(max_steps=3))
+    spiky = surface.heights.copy()
+    spiky[3, 3], spiky[3, 4] = 20 * SPACING, -20 * SPACING
+    runs = (load_runs("matrix", "R", surface, (0.155, 0.62))
+            + option_runs("penalty", base, (0.155,), (10.0,))
+            + [StressRun("matrix", "limited", 0.155, case=limited),
+               StressRun("matrix", "spiky", 0.155,
+                         case=FemCase(Surface(spiky, SPACING, "spiky"), Loading(0.155))),
+               StressRun("measured", "missing", 0.155, error="measured surface not available")])
+    rows = run_stress(runs, 8, (0.155, 0.62), tmp_path / "out", MPI.COMM_SELF,
+                      tmp_path / "runs", progress=lambda line: None)
+    outcome = {(r["surface"], r["load_star"], r["factor"]): r for r in rows}
+    for key in (("R", 0.155, 1.0), ("R", 0.62, 1.0), ("R", 0.155, 10.0)):
+        assert outcome[key]["outcome"] in (DIRECT, CUT), outcome[key]
+        assert outcome[key]["mu_s"] > 0 and outcome[key]["nodes_per_patch"] > 0
+        assert outcome[key]["inception"] and abs(outcome[key]["force_error"]) < 1e-4
+        assert (outcome[key]["outcome"] == CUT) == (outcome[key]["cut_steps"] > 0)
+    # penalty x10 changes mu_s by < 1 % (test_solver_verification, the same surface)
+    assert outcome["R", 0.155, 10.0]["mu_s_change"] == pytest.approx(0.0, abs=0.01)
+    limit = outcome["limited", 0.155, 1.0]
+    assert limit["outcome"] == FAILED and "step limit" in limit["message"]
+    assert limit["mu_s"] is None and limit["converged"] is False
+    mesh = outcome["spiky", 0.155, 1.0]
+    assert mesh["outcome"] == FAILED and mesh["message"]
+    assert outcome["missing", 0.155, 1.0]["message"] == "measured surface not available"
+    assert outcome_counts(rows)[SILENT] == 0
+
+    written = list(csv.DictReader((tmp_path / "out" / "stress.csv").read_text().splitlines()))
+    assert len(written) == len(runs) == 6
+    assert written[3]["message"] == limit["message"]  # commas survive the CSV
+    markdown = (tmp_path / "out" / "stress.md").read_text()
+    assert "| R | " in markdown and "0 SILENT FAILURE" in markdown
+    assert "- limited F*=0.155: failed loudly: step limit" in markdown
