@@ -261,6 +261,7 @@ class Equilibrium:
                 continue
             if iteration == FREEZE_AFTER and self._active is None:
                 self._active = (state.contact.in_contact, state.contact.slipping)
+                history.clear()  # the frozen problem's residuals start their own record
             self.assemble_tangent(state.contact)
             try:
                 height_increment, its = self._bordered_solve(
