@@ -61,14 +61,18 @@ THEORY_FIGURES := fig12 fig13 fig17 fig18 fig19
 N ?= 32
 FEM_FIGURES := fig22 fig23 fig24 fig25 fig26 fig27 fig28 fig21 fig29 fig15 fig20 fig14 fig8 \
 	fig9 fig10
-.PHONY: $(SURFACE_FIGURES) $(THEORY_FIGURES) $(FEM_FIGURES)
+.PHONY: $(SURFACE_FIGURES) $(THEORY_FIGURES) $(FEM_FIGURES) fem-runs
 $(SURFACE_FIGURES) $(THEORY_FIGURES): setup
 	@$(VENV)/bin/roughfriction figure $@
 
 $(FEM_FIGURES): setup
 	@$(MPIRUN) $(VENV)/bin/roughfriction figure $@ --n $(N)
 
-figures: $(SURFACE_FIGURES) $(THEORY_FIGURES) $(FEM_FIGURES)
+# Every FEM figure's runs in one batch, so that the loads of a surface share one preload.
+fem-runs: setup
+	@$(MPIRUN) $(VENV)/bin/roughfriction figure runs --n $(N)
+
+figures: $(SURFACE_FIGURES) $(THEORY_FIGURES) fem-runs $(FEM_FIGURES)
 
 # Copy the figures the README shows into docs/figures/ (committed; figures/ is not).
 gallery: figures

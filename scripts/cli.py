@@ -162,12 +162,17 @@ def cmd_post(args) -> dict:
 def cmd_figure(args) -> dict:
     from scripts.figures import FIGURES, make_figure
 
+    if args.name == "runs":  # every FEM figure's runs, one batch (make figures does this first)
+        from scripts.figures import compute_fem_runs
+
+        return {"fem_cases": compute_fem_runs(n=args.n)}
     if args.name == "all":
         names = list(FIGURES)
     elif args.name in FIGURES:
         names = [args.name]
     else:
-        raise InputError(f"unknown figure {args.name!r}; known: all, {', '.join(FIGURES)}")
+        raise InputError(f"unknown figure {args.name!r}; known: all, runs, "
+                         f"{', '.join(FIGURES)}")
     return {name: str(make_figure(name, n=args.n)) for name in names}
 
 
@@ -237,7 +242,7 @@ def build_parser() -> argparse.ArgumentParser:
     post.set_defaults(run=cmd_post)
 
     figure = commands.add_parser("figure", help="make one of the paper's figures (PNG + CSV)")
-    figure.add_argument("name", help="figNN, or 'all'")
+    figure.add_argument("name", help="figNN, 'all', or 'runs' (compute every FEM figure's runs)")
     figure.add_argument("--n", type=int, metavar="N",
                         help="FEM figures: surface cells per side of the runs (default "
                         "$ROUGHFRICTION_FEM_N, else scripts.cases.DEFAULT_FEM_N); runs are kept "

@@ -91,6 +91,33 @@ def fem_runs(module, n: int | None = None, runs_directory=None) -> list | None:
     return [read_run(path) for path in paths] if comm.rank == 0 else None
 
 
+def compute_fem_runs(n: int | None = None, runs_directory=None) -> int:
+    """Compute, in one batch, every FEM run that the FEM figures declare: the loads of one
+    surface then share one normal loading path (figure by figure they would each repeat it).
+    A normal-only case whose sliding run is also declared is answered by that run. Call on
+    every rank; returns the number of cases declared."""
+    from dataclasses import replace
+
+    from mpi4py import MPI
+
+    from scripts.cases import fem_resolution
+    from solver.cache import cached_results, physics_version, run_key
+    from solver.options import Loading
+
+    cases = [case for name in FEM_FIGURES
+             for case in importlib.import_module(f"scripts.{name}").fem_cases(fem_resolution(n))]
+    physics = physics_version()
+
+    def sliding_key(case):
+        return run_key(replace(case, loading=Loading(case.loading.load_star)), physics)
+
+    sliding = {sliding_key(case) for case in cases if not case.loading.normal_only}
+    needed = [case for case in cases
+              if not (case.loading.normal_only and sliding_key(case) in sliding)]
+    cached_results(needed, MPI.COMM_WORLD, directory=runs_directory)
+    return len(cases)
+
+
 def make_figure(name: str, directory: Path = FIGURE_DIR, n: int | None = None,
                 runs_directory=None) -> Path:
     """Draw figure ``name`` and write its PNG and CSV into ``directory``; return the PNG path.
