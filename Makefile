@@ -86,6 +86,7 @@ bench-multiscale: setup
 # G5 at F* = 0.155 with N = 32, 64, 128 on $(NP) ranks -> results/bench/fem.csv
 bench-fem: setup
 	@$(PY) -m solver.benchmark --n 32 64 128 --ranks $(NP)
+	@mkdir -p docs/bench && cp results/bench/fem.csv docs/bench/
 
 # Run time against error (solver/convergence.py): G5 at F* = 0.155 and 0.93, 2L at 0.5 and the
 # elastic sinusoid, at N = 16, 32, 64, 128, a 64^2 surface on 128 and each knob alone at N = $(N),

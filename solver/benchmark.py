@@ -3,9 +3,9 @@
     python -m solver.benchmark --n 32 64 128 --ranks 2
 
 Writes ``results/bench/fem.csv`` (one row per N, rewritten after every run so that finished rows
-survive a later failure) with wall time, peak memory summed over the ranks, steps, Newton
-iterations, mu_s and the problem size; each run's full record goes to
-``results/bench/fem_G5_N<N>.h5``.
+survive a later failure; rows of other N already in the file are kept) with wall time, peak
+memory summed over the ranks, steps, Newton iterations, mu_s and the problem size; each run's
+full record goes to ``results/bench/fem_G5_N<N>.h5``.
 """
 
 from __future__ import annotations
@@ -56,13 +56,24 @@ def write_csv(rows: list[dict], path: Path) -> None:
         writer.writerows(rows)
 
 
+def read_rows(path: Path) -> dict[int, dict]:
+    """The rows of an existing benchmark table, by N (empty if there is none)."""
+    if not path.exists():
+        return {}
+    with open(path, newline="") as file:
+        return {int(row["n"]): row for row in csv.DictReader(file)}
+
+
 def benchmark_sizes(sizes: list[int], ranks: int) -> list[dict]:
-    """Run every grid size in turn; rewrite ``fem.csv`` after each; return the rows."""
+    """Run every grid size in turn; rewrite ``fem.csv`` after each (keeping rows of other N);
+    return the new rows."""
     BENCH_DIR.mkdir(parents=True, exist_ok=True)
+    table = BENCH_DIR / "fem.csv"
     rows = []
     for n in sizes:
         rows.append(run_size(n, ranks))
-        write_csv(rows, BENCH_DIR / "fem.csv")
+        kept = {**read_rows(table), n: rows[-1]}
+        write_csv([kept[size] for size in sorted(kept)], table)
         print(json.dumps(rows[-1]), file=sys.stderr, flush=True)
     return rows
 

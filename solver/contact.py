@@ -61,12 +61,6 @@ class ContactResponse:
         dR/du blocks [N/m], shape (n, 3, 3).
     height_derivative : numpy.ndarray
         dR_z/dh [N/m], shape (n,).
-    free_contact : numpy.ndarray
-        lambda_k - eps_N g_k > 0: the nodes the contact law puts in contact, shape (n,), bool
-        (equal to ``in_contact`` unless the active set was frozen).
-    free_slipping : numpy.ndarray
-        The nodes the friction law puts at the cap, shape (n,), bool (equal to ``slipping``
-        unless the active set was frozen).
     """
 
     gap: np.ndarray
@@ -78,8 +72,6 @@ class ContactResponse:
     force: np.ndarray
     stiffness: np.ndarray
     height_derivative: np.ndarray
-    free_contact: np.ndarray
-    free_slipping: np.ndarray
 
 
 class RigidFlat:
@@ -137,31 +129,24 @@ class RigidFlat:
             Frictional (tangential phase) or frictionless (normal preload).
         predictor : bool
             Stick law without cap for nodes that stuck at the last converged step.
-        active : tuple of numpy.ndarray, optional
-            Frozen contact and slip sets, each shape (n,), bool: contact nodes carry
-            lambda_k - eps_N g_k even if it is negative, the others none; slipping nodes carry
-            tau_c t*/|t*| even below the cap, sticking ones t* even above it (a smooth problem
-            for Newton; the caller checks the sets against ``free_contact`` and
-            ``free_slipping`` once converged).
+        active : numpy.ndarray, optional
+            Frozen contact set, shape (n,), bool: these nodes carry lambda_k - eps_N g_k even
+            if it is negative, the others none (a smooth problem for Newton; the caller judges
+            a converged iterate under the free law).
         """
         u = displacement[self.nodes]
         a, eps = self.area, self.penalty
         gap = flat_height - (self.heights + u[:, 2])
         trial_pressure = self.multiplier - eps * gap
-        free_contact = trial_pressure > 0.0
-        in_contact = free_contact if active is None else active[0]
+        in_contact = trial_pressure > 0.0 if active is None else active
         pressure = np.where(in_contact, trial_pressure, 0.0)
         relative = np.column_stack([flat_slide - u[:, 0], -u[:, 1]])  # w [m]
         trial = eps * (relative - self.stick_offset)
         trial_norm = np.linalg.norm(trial, axis=1)
         frictional = in_contact & friction
         capped = self.slipped if predictor else frictional
-        free_slipping = frictional & capped & (trial_norm > self.shear_strength)
-        slipping = free_slipping if active is None else frictional & active[1]
-        # (a frozen slipping node may fall below the cap; the floor keeps its tangent finite
-        # and never acts in a converged state, where slipping nodes have |t*| > tau_c)
-        floor = 1e-3 * self.shear_strength
-        scale = np.where(slipping, self.shear_strength / np.maximum(trial_norm, floor), 1.0)
+        slipping = frictional & capped & (trial_norm > self.shear_strength)
+        scale = np.where(slipping, self.shear_strength / np.where(slipping, trial_norm, 1.0), 1.0)
         traction = np.where(frictional[:, None], scale[:, None] * trial, 0.0)
 
         direction = trial / np.where(trial_norm > 0.0, trial_norm, 1.0)[:, None]
@@ -182,8 +167,6 @@ class RigidFlat:
             force=force,
             stiffness=stiffness,
             height_derivative=np.where(in_contact, -eps * a, 0.0),
-            free_contact=free_contact,
-            free_slipping=free_slipping,
         )
 
     def commit(self, response: ContactResponse) -> None:
