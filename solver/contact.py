@@ -20,10 +20,14 @@ eps_T dU of a whole slide increment exceeds tau_c everywhere (eps_T is much stif
 solid), every node "slips", the slip tangent has no stiffness along the slide and Newton
 overshoots back and forth across the tiny stick cone |w - w_s| <= tau_c / eps_T.
 
-On commit w_s <- w - t/eps_T: a sticking node keeps its offset, a slipping node drags it, a node
-out of contact (t = 0) forgets it and re-sticks where it touches again. Frictionless steps
-(``friction=False``, the normal preload) have t = 0 everywhere, so the first frictional step
-starts from full stick, as in the paper.
+On commit w_s <- w - t/eps_T: a sticking node keeps its offset, a slipping node drags it. A node
+that was out of contact at the last converged step has no stick point yet: it carries no shear
+in the step in which it touches and sticks where it is at the end of that step (its stick point
+is taken at the end of the step rather than at its start). Otherwise a node that touches with a
+vanishing pressure would at once carry the full cap tau_c (the cap does not depend on p), a jump
+that makes such nodes flip in and out of contact from one Newton iterate to the next. Frictionless
+steps (``friction=False``, the normal preload) have t = 0 everywhere, so the first frictional
+step starts from full stick at every node in contact, as in the paper.
 
 Signs: R = f_int - f_ext. The flat pushes the node with -p a e_z and drags it with t a, so the
 node's residual gains (-t_x a, -t_y a, p a), and dR_z/dh = -eps_N a on nodes in contact.
@@ -109,6 +113,7 @@ class RigidFlat:
         self.shear_strength = shear_strength
         self.stick_offset = np.zeros((len(nodes), 2))
         self.slipped = np.zeros(len(nodes), dtype=bool)  # slipping at the last converged step
+        self.anchored = np.zeros(len(nodes), dtype=bool)  # in contact at the last converged step
         self.multiplier = np.zeros(len(nodes))  # lambda_k [Pa]
         self._committed_multiplier = self.multiplier
 
@@ -143,7 +148,7 @@ class RigidFlat:
         relative = np.column_stack([flat_slide - u[:, 0], -u[:, 1]])  # w [m]
         trial = eps * (relative - self.stick_offset)
         trial_norm = np.linalg.norm(trial, axis=1)
-        frictional = in_contact & friction
+        frictional = in_contact & friction & self.anchored
         capped = self.slipped if predictor else frictional
         slipping = frictional & capped & (trial_norm > self.shear_strength)
         scale = np.where(slipping, self.shear_strength / np.where(slipping, trial_norm, 1.0), 1.0)
@@ -173,6 +178,7 @@ class RigidFlat:
         """Keep the stick offsets, slip states and multipliers of a converged step."""
         self.stick_offset = response.stick_offset
         self.slipped = response.slipping
+        self.anchored = response.in_contact
         self._committed_multiplier = self.multiplier
 
     def restore(self) -> None:
@@ -180,13 +186,13 @@ class RigidFlat:
         self.multiplier = self._committed_multiplier
 
     def committed_state(self) -> tuple:
-        """The committed stick offsets, slip flags and multipliers (arrays are replaced, never
-        changed in place, so references stay valid)."""
-        return self.stick_offset, self.slipped, self._committed_multiplier
+        """The committed stick offsets, slip and contact flags and multipliers (arrays are
+        replaced, never changed in place, so references stay valid)."""
+        return self.stick_offset, self.slipped, self.anchored, self._committed_multiplier
 
     def resume(self, state: tuple) -> None:
         """Return to a :meth:`committed_state`."""
-        self.stick_offset, self.slipped, self._committed_multiplier = state
+        self.stick_offset, self.slipped, self.anchored, self._committed_multiplier = state
         self.multiplier = self._committed_multiplier
 
     def penetration(self, response: ContactResponse) -> float:

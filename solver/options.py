@@ -85,7 +85,7 @@ class SolverOptions:
     linear_solver: str = "auto"
     direct_limit: int = 1_000
     residual_tolerance: float = 1e-6
-    increment_tolerance: float = 1e-6
+    increment_tolerance: float = 1e-5
     max_iterations: int = 15
     normal_increments: int = 5
     first_slide: float = 0.02

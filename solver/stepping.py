@@ -124,11 +124,14 @@ class LoadPath:
         options = self.case.solver
         largest = 1.0 if options.elastic else MAX_PRELOAD_INCREMENT  # elastic: path-free
         size = StepSize(1.0 / options.normal_increments, largest)
+        last_increment = None  # force increment of the last accepted step of this call [N]
         while self.normal_force < target:
             start = self.normal_force / target
             trial = min(1.0, start + size.value)
             if self.normal_force == 0.0:
                 self.equilibrium.place_flat(trial * target)
+            elif last_increment is not None:
+                self.equilibrium.extrapolate((trial * target - self.normal_force) / last_increment)
             report = self._attempt(trial * target, 0.0, friction=False)
             if report is None:
                 return Outcome(False, f"step limit reached during preload at F_n = {start:.4g}"
@@ -138,6 +141,8 @@ class LoadPath:
                     return Outcome(False, f"preload did not converge beyond {start:.4g} x F_n "
                                           f"(Newton residual {report.residual:.2e} F_n)")
                 continue
+            # (not from the unloaded state: there the flat's height is not on the load path)
+            last_increment = trial * target - self.normal_force if self.normal_force else None
             self.normal_force = trial * target
             self._accept("normal", report, 0.0)
             size.after(report)

@@ -77,6 +77,7 @@ class ScriptedEquilibrium:
 
     def __init__(self, failing):
         self.failing, self.calls = set(failing), 0
+        self.extrapolations = []  # ratios passed to extrapolate
         self.flat_height = 0.0
         self.solid = types.SimpleNamespace(plastic_volume_fraction=lambda: 0.0)
         self.flat = types.SimpleNamespace(
@@ -96,6 +97,9 @@ class ScriptedEquilibrium:
 
     def place_flat(self, normal_force):
         pass
+
+    def extrapolate(self, ratio):
+        self.extrapolations.append(ratio)
 
     def restore(self):
         pass
@@ -121,6 +125,9 @@ def test_load_path_records_the_cuts_before_each_step_also_across_a_branch():
     target = case.normal_force
     assert path.preload(0.5 * target).converged  # calls 2 and 3 cut the second step twice
     assert [r.cuts for r in path.records] == [0, 2, 0, 0, 0, 0, 0]
+    # steps 3-7 start from the last two steps extrapolated (not step 2: step 1 began unloaded)
+    assert len(equilibrium.extrapolations) == 5
+    np.testing.assert_allclose(equilibrium.extrapolations[:3], 1.5)  # increments grow by 1.5
     branch = path.branch_point()
     assert path.slide().converged  # call 10 cut, 11 accepted at inception
     assert [r.cuts for r in path.records[7:]] == [1]
