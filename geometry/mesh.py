@@ -1,24 +1,32 @@
-"""The FEM block under a rough surface: a pure-hexahedral gmsh mesh moved onto the height map.
+"""The FEM block under a rough surface: a pure-hexahedral mesh moved onto the height map.
 
 Layout (z up, the mean plane of the surface at z = 0)::
 
     z = Z(x, y)      contact surface: N x N cells, (N + 1)^2 nodes, periodic closure
     ...              ``blend_layers`` layers of thickness h; the roughness fades linearly to 0
-    z = -n_b h       flat from here down
-    ...              base layers, thickness growing geometrically (ratio ``growth``)
+    ...              flat layers of thickness h, down to ``fine_layers`` layers in all
+    ...              coarsened levels: each doubles the lateral cell size (2:1) and holds
+                     ``COARSE_LAYERS_PER_LEVEL`` cubic layers (``coarsen``); otherwise, or
+                     once a level cannot be halved again, layers of lateral size unchanged
+                     whose thickness grows geometrically (ratio ``growth``)
     z = -H           bottom (fixed), H >= ``depth`` x period
 
 Why hexahedra only: linear tetrahedra lock under isochoric plastic flow, and a hexahedral
 surface zone over a tetrahedral base makes gmsh insert pyramids, which dolfinx 0.5 refuses (one
 cell type per mesh). Trilinear hexahedra with selective reduced integration do not lock.
 
-The block is first meshed flat (gmsh: a transfinite, recombined square extruded in graded
-layers), then the surface heights are applied by moving node z-coordinates in place
-(the paper's moving-node method), and every cell's Jacobian is checked.
+Lateral coarsening: a 2:1 level below a finer layer leaves "hanging" nodes on the interface
+(edge midpoints and face centres of the coarse cells' top faces, corners of the fine cells
+above). They keep their own dofs in the mesh and are tied to the coarse face's corners by
+bilinear interpolation in the same reduction u = P u_red that imposes periodicity
+(``solver/periodic.py``), which is exact for trilinear hexahedra: the fine cells see exactly the
+displacement of the coarse face. Below the surface zone the field varies on the scale of the
+depth, not of h, so this removes more than half of the dofs at N >= 64 (numbers in the README).
 
-Lateral coarsening of the base is not implemented. Note for later: 2:1 coarsened hexahedral
-layers, tied by hanging-node constraints placed in the same 0/1-type reduction matrix as the
-periodicity, would be exact for trilinear hexahedra.
+The flat structured block is written into a gmsh model (discrete entities: nodes, hexahedra and
+the tagged boundary quadrilaterals) and distributed by dolfinx's gmsh reader; the surface
+heights are then applied by moving node z-coordinates in place (the paper's moving-node method),
+and every cell's Jacobian is checked.
 """
 
 from __future__ import annotations
@@ -49,6 +57,10 @@ class Boundary(IntEnum):
     YL = 6
 
 
+#: Cubic cell layers per 2:1 coarsened level [-].
+COARSE_LAYERS_PER_LEVEL = 2
+
+
 @dataclass(frozen=True)
 class MeshOptions:
     """How the block under the surface is layered.
@@ -57,8 +69,15 @@ class MeshOptions:
     ----------
     blend_layers : int
         Layers of thickness h (the grid spacing) over which the roughness fades to flat [-].
+    fine_layers : int
+        Layers at the full lateral resolution (thickness h) from the surface down, blend layers
+        included [-]; ``blend_layers`` if smaller.
+    coarsen : bool
+        Below the fine layers, halve the lateral resolution level by level (2:1, hanging nodes
+        tied exactly), while N stays divisible and at least 2 cells per side remain.
     growth : float
-        Thickness ratio of successive base layers going down [-], >= 1.
+        Thickness ratio of successive layers going down where the lateral size no longer
+        changes (no coarsening, or the coarsest level reached) [-], >= 1.
     depth : float
         Minimum block depth below the mean surface plane, in periods (N h) [-]. A surface
         wavelength lambda decays like exp(-2 pi z / lambda): at one period the longest one is down
@@ -66,14 +85,20 @@ class MeshOptions:
     """
 
     blend_layers: int = 4
+    fine_layers: int = 6
+    coarsen: bool = True
     growth: float = 1.4
     depth: float = 1.0
 
     def __post_init__(self):
-        if isinstance(self.blend_layers, bool) or int(self.blend_layers) != self.blend_layers:
-            raise InputError(f"blend_layers must be an integer, got {self.blend_layers!r}")
-        if self.blend_layers < 1:
-            raise InputError(f"blend_layers must be >= 1, got {self.blend_layers}")
+        for name in ("blend_layers", "fine_layers"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or int(value) != value:
+                raise InputError(f"{name} must be an integer, got {value!r}")
+            if value < 1:
+                raise InputError(f"{name} must be >= 1, got {value}")
+        if not isinstance(self.coarsen, bool):
+            raise InputError(f"coarsen must be true or false, got {self.coarsen!r}")
         if not (math.isfinite(self.growth) and 1.0 <= self.growth <= 3.0):
             raise InputError(f"layer growth ratio must lie in [1, 3], got {self.growth}")
         if not (math.isfinite(self.depth) and self.depth > 0):
@@ -88,13 +113,14 @@ class Block:
     ----------
     mesh : dolfinx.mesh.Mesh
         Hexahedral mesh [m], surface nodes already on the height map.
-    facet_tags : dolfinx.mesh.MeshTags
-        Facets tagged with :class:`Boundary` values.
     grid_index : numpy.ndarray
         (i, j, k) of every local geometry node, shape (num_nodes, 3): x = i h, y = j h
         (0 <= i, j <= n) and node layer k (0 at the bottom, ``num_layers`` at the surface).
     layer_z : numpy.ndarray
         Flat z of the node layers [m], bottom (-H) to top (0), shape (num_layers + 1,).
+    layer_stride : numpy.ndarray
+        Lateral size of the cells of each cell layer in grid spacings (1 at full resolution,
+        2, 4, ... in coarsened levels), bottom to top, shape (num_layers,).
     n : int
         Surface cells per side [-].
     spacing : float
@@ -102,9 +128,9 @@ class Block:
     """
 
     mesh: object
-    facet_tags: object
     grid_index: np.ndarray
     layer_z: np.ndarray
+    layer_stride: np.ndarray
     n: int
     spacing: float
 
@@ -124,28 +150,81 @@ class Block:
         return len(self.layer_z) - 1
 
 
-def layer_positions(n: int, spacing: float, options: MeshOptions) -> np.ndarray:
-    """Flat z of the node layers [m], bottom to top, the top at z = 0.
+def layer_layout(n: int, spacing: float, options: MeshOptions) -> tuple[np.ndarray, np.ndarray]:
+    """Flat z of the node layers and the lateral cell size of each cell layer.
 
     Parameters
     ----------
     n : int
         Surface cells per side [-].
     spacing : float
-        Grid spacing h [m]; the blend layers are h thick.
+        Grid spacing h [m]; the fine layers are h thick.
     options : MeshOptions
         Layering.
 
     Returns
     -------
-    numpy.ndarray
-        Increasing z [m]; the first entry is -H with H >= options.depth * n * spacing.
+    layer_z : numpy.ndarray
+        Increasing z of the node layers [m]; the first entry is -H with
+        H >= options.depth * n * spacing, the last 0.
+    layer_stride : numpy.ndarray
+        Lateral cell size of each cell layer, bottom to top [grid spacings].
     """
-    thicknesses = [spacing] * options.blend_layers
+    fine = max(options.fine_layers, options.blend_layers)
+    thicknesses, strides = [spacing] * fine, [1] * fine
     target = options.depth * n * spacing
     while sum(thicknesses) < target * (1.0 - 1e-12):
-        thicknesses.append(thicknesses[-1] * options.growth)
-    return -np.concatenate([np.cumsum(thicknesses)[::-1], [0.0]])
+        stride = strides[-1]
+        if options.coarsen and n % (2 * stride) == 0 and 2 * stride <= n // 2:
+            thicknesses += [2 * stride * spacing] * COARSE_LAYERS_PER_LEVEL
+            strides += [2 * stride] * COARSE_LAYERS_PER_LEVEL
+        else:
+            thicknesses.append(thicknesses[-1] * options.growth)
+            strides.append(stride)
+    layer_z = -np.concatenate([np.cumsum(thicknesses)[::-1], [0.0]])
+    return layer_z, np.array(strides[::-1])
+
+
+def node_layer_stride(layer_stride: np.ndarray) -> np.ndarray:
+    """Lateral node spacing of each node layer [grid spacings], bottom to top: that of the cell
+    layer above it (the finer one), the top layer's for the surface."""
+    return np.append(layer_stride, layer_stride[-1])
+
+
+def interpolation_masters(grid: np.ndarray, layer_stride: np.ndarray
+                          ) -> tuple[np.ndarray, np.ndarray]:
+    """Where each node's displacement comes from: itself, or for a hanging node the corners of
+    the coarse face it lies on, bilinearly.
+
+    Parameters
+    ----------
+    grid : numpy.ndarray
+        (i, j, k) of nodes, shape (m, 3).
+    layer_stride : numpy.ndarray
+        Lateral cell size of each cell layer [grid spacings], bottom to top.
+
+    Returns
+    -------
+    masters : numpy.ndarray
+        (i, j, k) of up to 4 master nodes per node, shape (m, 4, 3) (unused slots repeat the
+        first master with weight 0).
+    weights : numpy.ndarray
+        Interpolation weights, shape (m, 4), summing to 1: (1, 0, 0, 0) for a node that is not
+        hanging, (1/2, 1/2, 0, 0) on a coarse edge, (1/4, ...) at a coarse face centre.
+    """
+    i, j, k = grid.T
+    below = np.append(1, layer_stride)[k]  # cell layer under node layer k (none under k = 0)
+    half = below // 2
+    off_i, off_j = (i % below != 0), (j % below != 0)
+    corners_i = np.stack([i - half * off_i, i + half * off_i], axis=1)
+    corners_j = np.stack([j - half * off_j, j + half * off_j], axis=1)
+    masters = np.stack([
+        np.column_stack([corners_i[:, a], corners_j[:, b], k]) for a in (0, 1) for b in (0, 1)
+    ], axis=1)
+    weight = np.where(off_i, 0.5, 1.0) * np.where(off_j, 0.5, 1.0)
+    # keep each distinct corner once: a node off in i only uses corners (0, 0) and (1, 0)
+    used = np.column_stack([np.ones_like(off_i), off_j, off_i, off_i & off_j])
+    return masters, np.where(used, weight[:, None], 0.0)
 
 
 def build_block(heights: np.ndarray, spacing: float, options: MeshOptions, comm) -> Block:
@@ -175,73 +254,110 @@ def build_block(heights: np.ndarray, spacing: float, options: MeshOptions, comm)
     """
     heights = np.asarray(heights, dtype=float)
     n = heights.shape[0]
-    layer_z = layer_positions(n, spacing, options)
-    mesh, facet_tags = _flat_hex_block(n, spacing, layer_z, comm)
+    layer_z, layer_stride = layer_layout(n, spacing, options)
+    mesh = _flat_hex_block(n, spacing, layer_z, layer_stride, comm)
     grid_index = _grid_index(mesh.geometry.x, spacing, layer_z)
     flat_x = mesh.geometry.x.copy()
     _move_to_surface(mesh.geometry.x, grid_index, heights - heights.mean(), len(layer_z) - 1,
                      options.blend_layers)
-    block = Block(mesh, facet_tags, grid_index, layer_z, n, spacing)
+    block = Block(mesh, grid_index, layer_z, layer_stride, n, spacing)
     check_jacobians(block, flat_x, heights - heights.mean(), options.blend_layers)
     return block
 
 
-def _flat_hex_block(n: int, spacing: float, layer_z: np.ndarray, comm):
-    """Flat structured hexahedral block [0, N h]^2 x [-H, 0] from gmsh, distributed over comm.
+def structured_block(n: int, layer_stride: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Nodes and hexahedra of the layered block, in grid units.
 
-    A transfinite, recombined square at z = -H is extruded upwards in one-cell layers whose
-    relative heights follow ``layer_z``. Returns (mesh, facet_tags).
+    Parameters
+    ----------
+    n : int
+        Surface cells per side [-].
+    layer_stride : numpy.ndarray
+        Lateral cell size of each cell layer [grid spacings], bottom to top.
+
+    Returns
+    -------
+    grid : numpy.ndarray
+        (i, j, k) of every node, shape (num_nodes, 3).
+    hexahedra : numpy.ndarray
+        Node numbers of each cell in gmsh order (bottom face counter-clockwise, then top),
+        shape (num_cells, 8).
+    """
+    node_stride = node_layer_stride(layer_stride)
+    grid = np.concatenate([
+        np.column_stack([ij.reshape(2, -1).T, np.full((ij[0].size, 1), k)])
+        for k, stride in enumerate(node_stride)
+        for ij in [np.array(np.meshgrid(np.arange(0, n + 1, stride), np.arange(0, n + 1, stride),
+                                        indexing="ij"))]
+    ])
+    number = np.full((len(node_stride), n + 1, n + 1), -1, dtype=np.int64)
+    number[grid[:, 2], grid[:, 0], grid[:, 1]] = np.arange(len(grid))
+
+    square = np.array([(0, 0), (1, 0), (1, 1), (0, 1)])  # counter-clockwise corners
+    hexahedra = []
+    for layer, stride in enumerate(layer_stride):
+        start = np.arange(0, n, stride)
+        i0, j0 = (a.ravel() for a in np.meshgrid(start, start, indexing="ij"))
+        ci, cj = i0[:, None] + stride * square[:, 0], j0[:, None] + stride * square[:, 1]
+        hexahedra.append(np.hstack([number[layer, ci, cj], number[layer + 1, ci, cj]]))
+    return grid, np.concatenate(hexahedra)
+
+
+def _flat_hex_block(n: int, spacing: float, layer_z: np.ndarray, layer_stride: np.ndarray,
+                    comm):
+    """Flat structured hexahedral block [0, N h]^2 x [-H, 0], distributed over comm.
+
+    The nodes and hexahedra of :func:`structured_block` are written into a gmsh model as a
+    discrete volume (physical group 1) and read by dolfinx's gmsh reader. Returns the mesh.
     """
     import gmsh
     from dolfinx.io import gmshio
 
-    period = n * spacing
-    depth = -layer_z[0]
     if comm.rank == 0:
+        grid, hexahedra = structured_block(n, layer_stride)
+        coordinates = np.column_stack([grid[:, :2] * spacing, layer_z[grid[:, 2]]])
         gmsh.initialize()
         gmsh.option.setNumber("General.Terminal", 0)
         gmsh.model.add("block")
-        geo = gmsh.model.geo
-        corners = [(0.0, 0.0), (period, 0.0), (period, period), (0.0, period)]
-        points = [geo.addPoint(x, y, -depth) for x, y in corners]
-        lines = [geo.addLine(points[i], points[(i + 1) % 4]) for i in range(4)]
-        base = geo.addPlaneSurface([geo.addCurveLoop(lines)])
-        for line in lines:
-            geo.mesh.setTransfiniteCurve(line, n + 1)
-        geo.mesh.setTransfiniteSurface(base)
-        geo.mesh.setRecombine(2, base)
-        cumulative = (layer_z[1:] - layer_z[0]) / depth
-        extruded = geo.extrude(
-            [(2, base)], 0.0, 0.0, depth,
-            numElements=[1] * len(cumulative), heights=list(cumulative), recombine=True,
-        )
-        geo.synchronize()
-        volume = [tag for dim, tag in extruded if dim == 3]
-        gmsh.model.addPhysicalGroup(3, volume, 1)
-        for tag in [base] + [tag for dim, tag in extruded if dim == 2]:
-            side = _boundary_of(gmsh.model.getBoundingBox(2, tag), period, depth)
-            gmsh.model.addPhysicalGroup(2, [tag], side)
-        gmsh.model.mesh.generate(3)
-    mesh, _, facet_tags = gmshio.model_to_mesh(gmsh.model, comm, 0, gdim=3)
+        volume = gmsh.model.addDiscreteEntity(3)
+        gmsh.model.mesh.addNodes(3, volume, np.arange(1, len(grid) + 1), coordinates.ravel())
+        gmsh.model.mesh.addElementsByType(volume, 5, [], (hexahedra + 1).ravel())  # 8-node hex
+        gmsh.model.addPhysicalGroup(3, [volume], 1)
+    mesh, _, _ = gmshio.model_to_mesh(gmsh.model, comm, 0, gdim=3)
     if comm.rank == 0:
         gmsh.finalize()
-    return mesh, facet_tags
+    return mesh
 
 
-def _boundary_of(box, period: float, depth: float) -> Boundary:
-    """Which side of the block a flat gmsh surface with bounding box ``box`` is."""
-    xmin, ymin, zmin, xmax, ymax, zmax = box
-    tol = 1e-6 * period
-    sides = {
-        Boundary.CONTACT: zmin > -tol,
-        Boundary.BOTTOM: zmax < -depth + tol,
-        Boundary.X0: xmax < tol,
-        Boundary.XL: xmin > period - tol,
-        Boundary.Y0: ymax < tol,
-        Boundary.YL: ymin > period - tol,
-    }
-    (side,) = [tag for tag, matches in sides.items() if matches]
-    return side
+def boundary_facet_tags(block: Block):
+    """Tag the block's boundary facets with :class:`Boundary` values, by the grid index of their
+    vertices (a facet is on a side when all its vertices are).
+
+    The mesh's facets are computed here, not when the block is built: the solver needs none,
+    and dolfinx 0.5 takes minutes computing them on 2 ranks for a coarsened block at N = 64
+    (measured: not finished after 40 s; 0.5 s at N = 32).
+
+    Returns
+    -------
+    dolfinx.mesh.MeshTags
+    """
+    from dolfinx import mesh as dolfinx_mesh
+    from dolfinx.cpp.mesh import entities_to_geometry
+
+    mesh = block.mesh
+    mesh.topology.create_entities(2)
+    mesh.topology.create_connectivity(2, 3)
+    facets = dolfinx_mesh.exterior_facet_indices(mesh.topology)
+    facet_nodes = entities_to_geometry(mesh._mesh, 2, facets, False)
+    i, j, k = (block.grid_index[facet_nodes][..., axis] for axis in range(3))
+    sides = {Boundary.CONTACT: k == block.num_layers, Boundary.BOTTOM: k == 0,
+             Boundary.X0: i == 0, Boundary.XL: i == block.n,
+             Boundary.Y0: j == 0, Boundary.YL: j == block.n}
+    values = np.zeros(len(facets), dtype=np.int32)
+    for side, on_side in sides.items():
+        values[on_side.all(axis=1)] = int(side)
+    tagged = values > 0
+    return dolfinx_mesh.meshtags(mesh, 2, facets[tagged].astype(np.int32), values[tagged])
 
 
 def _grid_index(x: np.ndarray, spacing: float, layer_z: np.ndarray) -> np.ndarray:

@@ -58,7 +58,8 @@ BASE_N = 32
 #: Knobs changed one at a time from the defaults at BASE_N: (options table, option, values).
 VARIANTS = (
     ("mesh", "blend_layers", (2, 8)),  # default 4
-    ("mesh", "growth", (1.2, 2.0)),  # base layer thickness ratio, default 1.4
+    ("mesh", "fine_layers", (4, 10)),  # full-resolution layers, default 6
+    ("mesh", "coarsen", (False,)),  # 2:1 coarsened levels below them, default on
     ("mesh", "depth", (0.5, 2.0)),  # base depth in periods, default 1
     ("solver", "integration", ("full",)),  # default "selective" (SRI)
     ("solver", "first_slide", (0.005, 0.08)),  # tangential step size, default 0.02
@@ -146,7 +147,7 @@ class Variant:
             return f"N={self.n}"
         if self.knob == "spectral":
             return f"{self.value}^2 on {self.n}"
-        value = self.value if isinstance(self.value, str) else f"{self.value:g}"
+        value = self.value if isinstance(self.value, (str, bool)) else f"{self.value:g}"
         return f"{self.knob.split('.')[1]}={value}"
 
 

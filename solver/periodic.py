@@ -1,10 +1,11 @@
-"""Lateral periodicity and the fixed bottom by algebraic reduction: u = P u_red.
+"""Lateral periodicity, hanging nodes and the fixed bottom by algebraic reduction: u = P u_red.
 
-P is a 0/1 matrix from the full displacement dofs to the reduced ones, built by matching the
-structured grid index of the nodes (x = L <-> x = 0, y = L <-> y = 0, and the corner edge
-x = y = L <-> x = y = 0 follow from i mod N, j mod N). Bottom nodes (u = 0) have no reduced
-dof: their rows of P are empty. The linear systems are P^T K P du_red = -P^T R (MatPtAP with the
-pattern reused), exact in serial and in parallel.
+P maps the reduced dofs to the full displacement dofs, built from the structured grid index of
+the nodes: x = L <-> x = 0, y = L <-> y = 0 and the corner edge x = y = L <-> x = y = 0 follow
+from i mod N, j mod N (entries 1); a hanging node of a coarsened level takes the bilinear
+interpolation of the coarse face's corners (entries 1/2 or 1/4, ``geometry.mesh``). Bottom
+nodes (u = 0) have no reduced dof: their rows of P are empty. The linear systems are
+P^T K P du_red = -P^T R (MatPtAP with the pattern reused), exact in serial and in parallel.
 
 dolfinx_mpc 0.5 is not used: it silently drops constraints on this machine's build (see the
 field notes).
@@ -17,7 +18,7 @@ from dolfinx import la
 from mpi4py import MPI
 from petsc4py import PETSc
 
-from geometry.mesh import Block
+from geometry.mesh import Block, interpolation_masters
 
 
 def dof_node_grid_index(V, block: Block) -> np.ndarray:
@@ -47,9 +48,10 @@ class PeriodicReduction:
     Attributes
     ----------
     P : petsc4py.PETSc.Mat
-        Full (rows) <- reduced (columns) 0/1 matrix.
+        Full (rows) <- reduced (columns) matrix.
     reduced_node : numpy.ndarray
-        Global reduced node of each local node of V (-1 on the fixed bottom), owned and ghost.
+        Global reduced node of each local node of V, owned and ghost (-1 on the fixed bottom and
+        at hanging nodes, which have no reduced node of their own).
     reduced_offset : int
         First global reduced node owned by this rank.
     num_reduced_owned : int
@@ -64,36 +66,60 @@ class PeriodicReduction:
         grid = dof_node_grid_index(V, block)
         n, num_owned = block.n, index_map.size_local
 
-        # Masters: nodes with i < N, j < N above the bottom; numbered rank by rank.
-        master = (grid[:, 0] < n) & (grid[:, 1] < n) & (grid[:, 2] > 0)
-        owned_master = np.flatnonzero(master[:num_owned])
-        self.master_node = owned_master
-        self.num_reduced_owned = len(owned_master)
+        # Masters: nodes with i < N, j < N above the bottom that are not hanging; numbered
+        # rank by rank.
+        masters, weights = interpolation_masters(grid, block.layer_stride)
+        hanging = weights[:, 0] < 1.0
+        # On 2 ranks dolfinx 0.5 duplicates some vertices of the non-conforming interfaces
+        # (each rank owns a copy; measured: 45 of 2280 nodes at N = 16): a grid position is
+        # numbered once, by the lowest rank owning a copy, and every copy maps to that number.
+        candidate = np.flatnonzero(((grid[:, 0] < n) & (grid[:, 1] < n) & (grid[:, 2] > 0)
+                                    & ~hanging)[:num_owned])
+        candidate_keys = _key(grid[candidate], n)
+        num_keys = block.num_layers * n * n
+        owner = np.full(num_keys, comm.size, dtype=np.int32)
+        owner[candidate_keys] = comm.rank
+        comm.Allreduce(MPI.IN_PLACE, owner, op=MPI.MIN)
+        mine = owner[candidate_keys] == comm.rank
+        owned_keys, first = np.unique(candidate_keys[mine], return_index=True)
+        self.master_node = candidate[mine][first]
+        self.num_reduced_owned = len(owned_keys)
         self.reduced_offset = comm.exscan(self.num_reduced_owned) or 0  # None on rank 0
 
-        # Every node finds its master's number through the key (k - 1, i mod N, j mod N).
-        num_keys = block.num_layers * n * n
+        # Every node finds its masters' numbers through the key (k - 1, i mod N, j mod N).
         numbering = np.full(num_keys, -1, dtype=np.int64)
-        numbering[_key(grid[owned_master], n)] = self.reduced_offset + np.arange(len(owned_master))
+        numbering[owned_keys] = self.reduced_offset + np.arange(len(owned_keys))
         comm.Allreduce(MPI.IN_PLACE, numbering, op=MPI.MAX)
-        self.reduced_node = np.full(len(grid), -1, dtype=np.int64)
         above_bottom = grid[:, 2] > 0
-        self.reduced_node[above_bottom] = numbering[_key(grid[above_bottom], n)]
+        columns = np.full(weights.shape, -1, dtype=np.int64)
+        columns[above_bottom] = numbering[_key(masters[above_bottom].reshape(-1, 3), n)].reshape(
+            -1, weights.shape[1])
+        weights = np.where(above_bottom[:, None], weights, 0.0)
+        self.reduced_node = np.where(above_bottom & ~hanging, columns[:, 0], -1)
         self.num_reduced_global = comm.allreduce(self.num_reduced_owned, op=MPI.SUM)
-        self.P = self._matrix(comm, index_map, num_owned)
+        self.P = self._matrix(comm, index_map, num_owned, columns[:num_owned],
+                              weights[:num_owned])
 
-    def _matrix(self, comm, index_map, num_owned: int) -> PETSc.Mat:
-        """Assemble P (AIJ, block size 3) row by row: one 1 per constrained-free dof."""
-        columns_of_node = self.reduced_node[:num_owned]
-        has_column = columns_of_node >= 0
-        row_counts = np.repeat(has_column.astype(np.int32), 3)
+    def _matrix(self, comm, index_map, num_owned: int, columns: np.ndarray,
+                weights: np.ndarray) -> PETSc.Mat:
+        """Assemble P (AIJ, block size 3) row by row from each owned node's master nodes
+        ``columns`` (num_owned, 4) and their ``weights`` (zero weights are left out)."""
+        used = weights != 0.0
+        order = np.argsort(np.where(used, columns, np.iinfo(np.int64).max), axis=1)
+        columns, weights, used = (np.take_along_axis(a, order, axis=1)
+                                  for a in (columns, weights, used))
+        row_counts = np.repeat(used.sum(axis=1), 3)
         indptr = np.concatenate([[0], np.cumsum(row_counts)]).astype(PETSc.IntType)
-        columns = (3 * columns_of_node[has_column, None] + np.arange(3)).ravel()
+        # entries in row order: node, component c (column 3 master + c), master
+        entry_columns = 3 * columns[:, None, :] + np.arange(3)[None, :, None]
+        entry_used = np.broadcast_to(used[:, None, :], entry_columns.shape)
+        entry_values = np.broadcast_to(weights[:, None, :], entry_columns.shape)
         P = PETSc.Mat().createAIJ(
             size=((3 * num_owned, 3 * index_map.size_global),
                   (3 * self.num_reduced_owned, 3 * self.num_reduced_global)),
             bsize=3,
-            csr=(indptr, columns.astype(PETSc.IntType), np.ones(len(columns))),
+            csr=(indptr, entry_columns[entry_used].astype(PETSc.IntType),
+                 entry_values[entry_used]),
             comm=comm,
         )
         P.assemble()

@@ -74,6 +74,9 @@ def surface_contact(solid: Solid, block: Block, case: FemCase) -> RigidFlat:
     n = block.n
     on_surface = np.flatnonzero((grid[:, 2] == block.num_layers) & (grid[:, 0] < n)
                                 & (grid[:, 1] < n))
+    owned_positions = block.mesh.comm.allreduce(len(on_surface))
+    if owned_positions != n * n:  # a duplicated surface vertex would carry its area twice
+        raise RuntimeError(f"{owned_positions} surface nodes own the {n * n} grid positions")
     heights = V.tabulate_dof_coordinates()[on_surface, 2]
     material, spacing = case.material, block.spacing
     return RigidFlat(

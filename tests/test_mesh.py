@@ -9,11 +9,15 @@ from mpi4py import MPI  # noqa: E402
 
 from geometry.errors import InputError  # noqa: E402
 from geometry.mesh import (  # noqa: E402
+    COARSE_LAYERS_PER_LEVEL,
     Boundary,
     MeshOptions,
+    boundary_facet_tags,
     build_block,
     corner_jacobians,
-    layer_positions,
+    interpolation_masters,
+    layer_layout,
+    structured_block,
 )
 
 pytestmark = pytest.mark.fem
@@ -21,14 +25,51 @@ pytestmark = pytest.mark.fem
 SPACING = 1e-6
 
 
-def test_layers_blend_at_grid_spacing_then_grow_to_the_depth():
-    options = MeshOptions(blend_layers=3, growth=1.5, depth=1.0)
-    z = layer_positions(16, SPACING, options)
+def test_uncoarsened_layers_are_fine_then_grow_to_the_depth():
+    options = MeshOptions(blend_layers=3, fine_layers=3, coarsen=False, growth=1.5, depth=1.0)
+    z, stride = layer_layout(16, SPACING, options)
     thickness = np.diff(z)[::-1]  # top down
     np.testing.assert_allclose(thickness[:3], SPACING)
     np.testing.assert_allclose(thickness[4:] / thickness[3:-1], 1.5)
     assert z[-1] == 0.0
     assert -z[0] >= 16 * SPACING > -z[1]  # the first layer deep enough, and no deeper
+    assert np.all(stride == 1)
+
+
+def test_coarsened_levels_halve_the_lateral_resolution_in_cubic_layers():
+    z, stride = layer_layout(32, SPACING, MeshOptions(blend_layers=4, fine_layers=6))
+    thickness, stride = np.diff(z)[::-1] / SPACING, stride[::-1]  # top down
+    np.testing.assert_array_equal(stride, [1] * 6 + [2, 2, 4, 4, 8, 8])
+    np.testing.assert_allclose(thickness, stride)  # cubes
+    assert -z[0] >= 32 * SPACING > -z[COARSE_LAYERS_PER_LEVEL]
+    # N = 12 halves once (12 / 4 = 3 is odd), then grows at that lateral size
+    _, stride = layer_layout(12, SPACING, MeshOptions(fine_layers=4))
+    assert set(stride) == {1, 2, 4} and stride[0] == 4
+
+
+def test_hanging_nodes_interpolate_the_corners_of_the_coarse_face():
+    stride = np.array([2, 1])  # cell layer 0 coarse, 1 fine: node layer 1 is the interface
+    grid = np.array([[2, 4, 1], [1, 4, 1], [2, 3, 1], [1, 3, 1], [1, 3, 2], [2, 2, 0]])
+    masters, weights = interpolation_masters(grid, stride)
+    np.testing.assert_allclose(weights.sum(axis=1), 1.0)
+    expected = [{(2, 4, 1): 1.0}, {(0, 4, 1): 0.5, (2, 4, 1): 0.5},
+                {(2, 2, 1): 0.5, (2, 4, 1): 0.5},
+                {(0, 2, 1): 0.25, (0, 4, 1): 0.25, (2, 2, 1): 0.25, (2, 4, 1): 0.25},
+                {(1, 3, 2): 1.0}, {(2, 2, 0): 1.0}]
+    for node, weights_of in enumerate(expected):
+        found = {tuple(m): w for m, w in zip(masters[node], weights[node], strict=True) if w}
+        assert found == weights_of
+
+
+def test_structured_block_cells_use_only_existing_nodes_and_cover_the_block():
+    n, stride = 8, np.array([4, 2, 2, 1])
+    grid, hexahedra = structured_block(n, stride)
+    assert len(hexahedra) == sum((n // s) ** 2 for s in stride)
+    assert len(np.unique(grid, axis=0)) == len(grid)
+    corners = grid[hexahedra]  # (cells, 8, 3), gmsh order: bottom face then top face
+    assert np.all(corners[:, :4, 2] + 1 == corners[:, 4:, 2])
+    width = corners[:, 2, 0] - corners[:, 0, 0]
+    assert np.array_equal(width, stride[corners[:, 0, 2]])
 
 
 def test_corner_jacobians_of_unit_and_sheared_cubes():
@@ -60,17 +101,20 @@ def test_block_nodes_sit_on_the_periodic_height_map():
     below_blend = k <= block.num_layers - MeshOptions().blend_layers
     np.testing.assert_allclose(x[below_blend, 2], block.layer_z[k[below_blend]], atol=1e-18)
     cells = block.mesh.topology.index_map(3).size_global
-    assert cells == n * n * block.num_layers
+    assert cells == sum((n // stride) ** 2 for stride in block.layer_stride)
 
 
 def test_facet_tags_cover_each_side():
     n = 8
     block = build_block(rough(n, 0.1 * SPACING), SPACING, MeshOptions(), MPI.COMM_WORLD)
-    counts = {tag: MPI.COMM_WORLD.allreduce(int(np.count_nonzero(block.facet_tags.values == tag)))
+    assert set(block.layer_stride) == {1, 2}  # coarsened once
+    tags = boundary_facet_tags(block)
+    counts = {tag: MPI.COMM_WORLD.allreduce(int(np.count_nonzero(tags.values == tag)))
               for tag in Boundary}
-    assert counts[Boundary.CONTACT] == counts[Boundary.BOTTOM] == n * n
+    assert counts[Boundary.CONTACT] == n * n
+    assert counts[Boundary.BOTTOM] == (n // block.layer_stride[0]) ** 2
     for side in (Boundary.X0, Boundary.XL, Boundary.Y0, Boundary.YL):
-        assert counts[side] == n * block.num_layers
+        assert counts[side] == sum(n // stride for stride in block.layer_stride)
 
 
 def test_inverted_cells_are_refused_with_a_layer_count_that_fixes_them():
@@ -83,7 +127,8 @@ def test_inverted_cells_are_refused_with_a_layer_count_that_fixes_them():
 
 
 @pytest.mark.parametrize("options", [{"blend_layers": 0}, {"growth": 0.5}, {"depth": -1.0},
-                                     {"blend_layers": 2.5}])
+                                     {"blend_layers": 2.5}, {"fine_layers": 0},
+                                     {"coarsen": "yes"}])
 def test_bad_mesh_options(options):
     with pytest.raises(InputError):
         MeshOptions(**options)

@@ -9,7 +9,11 @@ from dolfinx.fem import petsc as fem_petsc  # noqa: E402
 from mpi4py import MPI  # noqa: E402
 from petsc4py import PETSc  # noqa: E402
 
-from geometry.mesh import MeshOptions, build_block  # noqa: E402
+from geometry.mesh import (  # noqa: E402
+    MeshOptions,
+    build_block,
+    interpolation_masters,
+)
 from solver.material import Material  # noqa: E402
 from solver.periodic import PeriodicReduction, dof_node_grid_index  # noqa: E402
 from solver.solid import Solid  # noqa: E402
@@ -86,14 +90,19 @@ def test_plastic_tangent_is_the_derivative_of_the_residual(block):
     assert difference.norm() <= 1e-5 * product.norm()
 
 
-def test_periodic_images_share_displacements_and_the_bottom_is_fixed(block):
+def random_reduced_field(block):
+    """P times a random reduced vector: (reduction, nodal displacements (m, 3), grid index)."""
     solid = Solid(block.mesh, Material(), elastic=True)
     reduction = PeriodicReduction(solid.V, block)
     reduced = reduction.create_reduced_vector()
     reduced.setRandom()
     reduction.expand(reduced, solid.displacement)
-    u = solid.displacement.x.array.reshape(-1, 3)
-    grid = dof_node_grid_index(solid.V, block)
+    return (reduction, solid.displacement.x.array.reshape(-1, 3),
+            dof_node_grid_index(solid.V, block))
+
+
+def test_periodic_images_share_displacements_and_the_bottom_is_fixed(block):
+    reduction, u, grid = random_reduced_field(block)
     n = block.n
     key = ((grid[:, 2] * n + grid[:, 0] % n) * n + grid[:, 1] % n)
     images = {}
@@ -102,7 +111,27 @@ def test_periodic_images_share_displacements_and_the_bottom_is_fixed(block):
     for nodes in images.values():
         assert np.array_equal(u[nodes], np.broadcast_to(u[nodes[0]], u[nodes].shape))
     assert np.all(u[grid[:, 2] == 0] == 0.0)
-    masters = (grid[:, 0] < n) & (grid[:, 1] < n) & (grid[:, 2] > 0)
-    count = MPI.COMM_WORLD.allreduce(int(np.count_nonzero(masters[:solid.V.dofmap.index_map
-                                                                   .size_local])))
-    assert reduction.num_reduced_global == count == n * n * block.num_layers
+    # above the bottom, a node layer's own dofs sit at the spacing of the cell layer below it
+    assert reduction.num_reduced_global == sum((n // stride) ** 2 for stride in block.layer_stride)
+
+
+def test_hanging_nodes_follow_the_coarse_faces_bilinearly(block):
+    """Every node's displacement is the weighted sum of its masters' (itself, or the corners of
+    the coarse face it hangs on): the coarse and fine cells meet without gap or overlap."""
+    assert set(block.layer_stride) == {1, 2}
+    reduction, u, grid = random_reduced_field(block)
+    n = block.n
+    position = {(i % n, j % n, k): node for node, (i, j, k) in enumerate(grid)}
+    masters, weights = interpolation_masters(grid, block.layer_stride)
+    hanging = np.flatnonzero(weights[:, 0] < 1.0)
+    # the fine grid of the interface layer less the coarse corners, periodic images included
+    assert MPI.COMM_WORLD.allreduce(len(hanging)) == (n + 1) ** 2 - (n // 2 + 1) ** 2
+    checked = 0
+    for node in hanging:
+        corners = [position.get((i % n, j % n, k)) for i, j, k in masters[node]]
+        if None in corners:
+            continue  # a master not on this rank
+        expected = (weights[node, :, None] * u[corners]).sum(axis=0)
+        np.testing.assert_allclose(u[node], expected, rtol=1e-12)
+        checked += 1
+    assert MPI.COMM_WORLD.allreduce(checked) > 0

@@ -30,6 +30,7 @@ pytestmark = pytest.mark.fem
 SPACING = 1e-6
 PAPER_MATERIAL = Material()
 DEFAULT_MESH = MeshOptions()
+APPROACH_TOLERANCE = 1e-3  # measured: < 1e-5
 
 
 def run_case(heights, load, material=PAPER_MATERIAL, mesh=DEFAULT_MESH, normal_only=False,
@@ -142,6 +143,31 @@ def test_sinusoid_p_star_hardly_depends_on_block_depth():
     shallow, _ = sinusoid_run(Material(), 16, MeshOptions(depth=1.0))
     deep, _ = sinusoid_run(Material(), 16, MeshOptions(depth=2.0))
     assert deep == pytest.approx(shallow, rel=0.01)
+
+
+def test_coarsened_base_gives_the_result_of_the_full_resolution_base():
+    """The 2:1 coarsened levels (hanging nodes tied bilinearly) leave the contact of a rough
+    plastic surface unchanged: the same contact nodes, and the same approach of the flat once the
+    uniform compression of the (differently deep) blocks, F* S_y H / M, is taken off. Untied
+    hanging nodes would open the coarse interfaces and soften the block."""
+    heights = np.random.default_rng(7).normal(0.0, 0.1e-6, (16, 16))
+    load_star, material = 0.3, PAPER_MATERIAL
+    runs = [run_case(heights, load_star, mesh=MeshOptions(coarsen=coarsen), normal_only=True)
+            for coarsen in (True, False)]
+    assert set(runs[0].block.layer_stride) == {1, 2, 4} and set(runs[1].block.layer_stride) == {1}
+    constrained = material.bulk_modulus + 4 / 3 * material.shear_modulus  # M [Pa]
+
+    def local_approach(fem_run):
+        """Highest point minus the flat's height, less the uniform compression [m]."""
+        assert fem_run.result.converged
+        normal = fem_run.result.records[-1]
+        uniform = load_star * material.Sy * fem_run.block.depth / constrained
+        return heights.max() - heights.mean() - normal.flat_height - uniform
+
+    coarse, full = runs
+    assert coarse.result.records[-1].contact_nodes == full.result.records[-1].contact_nodes
+    assert local_approach(coarse) == pytest.approx(local_approach(full), rel=APPROACH_TOLERANCE,
+                                                   abs=0.0)
 
 
 @pytest.mark.parametrize("ratio", [0.2, 0.5])
