@@ -284,12 +284,11 @@ def structured_block(n: int, layer_stride: np.ndarray) -> tuple[np.ndarray, np.n
         shape (num_cells, 8).
     """
     node_stride = node_layer_stride(layer_stride)
-    grid = np.concatenate([
-        np.column_stack([ij.reshape(2, -1).T, np.full((ij[0].size, 1), k)])
-        for k, stride in enumerate(node_stride)
-        for ij in [np.array(np.meshgrid(np.arange(0, n + 1, stride), np.arange(0, n + 1, stride),
-                                        indexing="ij"))]
-    ])
+    layers = []
+    for k, stride in enumerate(node_stride):
+        i, j = np.meshgrid(np.arange(0, n + 1, stride), np.arange(0, n + 1, stride), indexing="ij")
+        layers.append(np.column_stack([i.ravel(), j.ravel(), np.full(i.size, k)]))
+    grid = np.concatenate(layers)
     number = np.full((len(node_stride), n + 1, n + 1), -1, dtype=np.int64)
     number[grid[:, 2], grid[:, 0], grid[:, 1]] = np.arange(len(grid))
 

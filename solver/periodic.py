@@ -65,12 +65,11 @@ class PeriodicReduction:
         index_map = V.dofmap.index_map
         grid = dof_node_grid_index(V, block)
         n, num_owned = block.n, index_map.size_local
-
-        # Masters: nodes with i < N, j < N above the bottom that are not hanging; numbered
-        # rank by rank.
         masters, weights = interpolation_masters(grid, block.layer_stride)
         hanging = weights[:, 0] < 1.0
-        # On 2 ranks dolfinx 0.5 duplicates some vertices of the non-conforming interfaces
+
+        # Masters: nodes with i < N, j < N above the bottom that are not hanging, numbered rank
+        # by rank. On 2 ranks dolfinx 0.5 duplicates some vertices of the non-conforming interfaces
         # (each rank owns a copy; measured: 45 of 2280 nodes at N = 16): a grid position is
         # numbered once, by the lowest rank owning a copy, and every copy maps to that number.
         candidate = np.flatnonzero(((grid[:, 0] < n) & (grid[:, 1] < n) & (grid[:, 2] > 0)
