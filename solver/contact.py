@@ -11,8 +11,25 @@ tributary area a_k = h_grid^2 of the projected surface) has
 * friction by a return map under the maximum shear stress criterion (the paper's tau_c): with
   w_k = (U - u_x,k, -u_y,k) the flat's tangential position relative to the node and w_s,k the
   committed stick offset, the trial traction is t* = eps_T (w_k - w_s,k); the node sticks if
-  |t*| <= tau_c, else slips with t = tau_c t*/|t*|. The cap does not depend on p_k, so the slip
-  tangent eps_T tau_c/|t*| (I - n n^T) is symmetric.
+  |t*| <= c_k, else slips with t = c_k t*/|t*|, under the cap c_k = tau_c min(1, p_k / p_r).
+
+The cap is the paper's tau_c wherever the pressure exceeds the ramp pressure p_r (0.01 S_y by
+default) and falls linearly to 0 with the pressure below it: ANSYS's form min(mu p, tau_max) of
+the maximum shear stress criterion, with mu = tau_c / p_r. With the pure cap tau_c (p_r -> 0) a
+node at the edge of a contact patch can have no consistent state: sticking, its shear lifts it
+off the flat (p < 0); released, it penetrates (measured on a random 16 x 16 surface at
+F* = 0.3: one node with 0.82 tau_c of shear at p = -1 MPa in contact and penetrating out of
+contact, so Newton cycled until the step size vanished). The ramp makes the traction continuous
+in p, so such a node slips at a small traction. Its cost: nodes below p_r carry less than tau_c
+(G5 at F* = 0.155, N = 32: mu_s -0.003 % for p_r = 0.01 S_y, -0.6 % for 0.02 S_y).
+
+Tangent of a slipping node: eps_T (c_k/|t*|) (I - n n^T) in the plane, which is symmetric, plus,
+below p_r, the coupling of its traction to its pressure, dt/dp = (tau_c/p_r) n, which is not
+(the node's x-y rows gain a u_z and an h column). That coupling is kept: without it Newton on a
+node below p_r is a fixed-point iteration that diverges when mu = tau_c / p_r times the node's
+shear-to-lift compliance exceeds 1 (G5, N = 64: residual stuck at 8e-6 F_n, step cut).
+``ContactResponse.symmetric`` says whether any node couples (the linear solver then switches
+from CG to GMRES).
 
 Tangential predictor: at the first Newton iteration of a tangential step, nodes that stuck at
 the last converged step keep the uncapped (linear) stick law. Without it, the trial traction
@@ -64,7 +81,9 @@ class ContactResponse:
     stiffness : numpy.ndarray
         dR/du blocks [N/m], shape (n, 3, 3).
     height_derivative : numpy.ndarray
-        dR_z/dh [N/m], shape (n,).
+        dR/dh [N/m], shape (n, 3).
+    symmetric : bool
+        No node on this rank couples its traction to its pressure (stiffness blocks symmetric).
     """
 
     gap: np.ndarray
@@ -76,6 +95,7 @@ class ContactResponse:
     force: np.ndarray
     stiffness: np.ndarray
     height_derivative: np.ndarray
+    symmetric: bool
 
 
 class RigidFlat:
@@ -99,10 +119,13 @@ class RigidFlat:
         Normal and tangential penalty eps_N = eps_T [Pa/m].
     shear_strength : float
         tau_c [Pa].
+    ramp_pressure : float
+        p_r: the cap is tau_c min(1, p / p_r) [Pa]; 0 for the pure cap tau_c.
     """
 
     def __init__(self, comm, nodes: np.ndarray, grid_index: np.ndarray, grid_size: int,
-                 heights: np.ndarray, area: float, penalty: float, shear_strength: float):
+                 heights: np.ndarray, area: float, penalty: float, shear_strength: float,
+                 ramp_pressure: float = 0.0):
         self.comm = comm
         self.nodes = nodes
         self.grid_index = grid_index
@@ -111,6 +134,7 @@ class RigidFlat:
         self.area = area
         self.penalty = penalty
         self.shear_strength = shear_strength
+        self.ramp_pressure = ramp_pressure
         self.stick_offset = np.zeros((len(nodes), 2))
         self.slipped = np.zeros(len(nodes), dtype=bool)  # slipping at the last converged step
         self.anchored = np.zeros(len(nodes), dtype=bool)  # in contact at the last converged step
@@ -150,8 +174,9 @@ class RigidFlat:
         trial_norm = np.linalg.norm(trial, axis=1)
         frictional = in_contact & friction & self.anchored
         capped = self.slipped if predictor else frictional
-        slipping = frictional & capped & (trial_norm > self.shear_strength)
-        scale = np.where(slipping, self.shear_strength / np.where(slipping, trial_norm, 1.0), 1.0)
+        cap = self.shear_cap(pressure)
+        slipping = frictional & capped & (trial_norm > cap)
+        scale = np.where(slipping, cap / np.where(slipping, trial_norm, 1.0), 1.0)
         traction = np.where(frictional[:, None], scale[:, None] * trial, 0.0)
 
         direction = trial / np.where(trial_norm > 0.0, trial_norm, 1.0)[:, None]
@@ -161,6 +186,11 @@ class RigidFlat:
         stiffness[:, :2, :2] = (np.where(frictional, eps * a * scale, 0.0)[:, None, None]
                                 * tangential)
         stiffness[:, 2, 2] = np.where(in_contact, eps * a, 0.0)
+        # below p_r a slipping node's traction c(p) n follows its pressure p = lambda - eps g:
+        # dR_xy/du_z = -a eps dc/dp n, dR_xy/dh = +a eps dc/dp n
+        coupling = (eps * a * self.cap_slope(pressure, slipping))[:, None] * direction
+        stiffness[:, :2, 2] = -coupling
+        height_derivative = np.column_stack([coupling, np.where(in_contact, -eps * a, 0.0)])
         force = np.column_stack([-traction * a, pressure * a])
         return ContactResponse(
             gap=gap,
@@ -171,8 +201,23 @@ class RigidFlat:
             stick_offset=relative - traction / eps,
             force=force,
             stiffness=stiffness,
-            height_derivative=np.where(in_contact, -eps * a, 0.0),
+            height_derivative=height_derivative,
+            symmetric=not np.any(coupling),
         )
+
+    def shear_cap(self, pressure: np.ndarray) -> np.ndarray:
+        """c = tau_c min(1, p / p_r) [Pa] (tau_c if p_r = 0) at the pressures ``pressure``
+        [Pa]."""
+        if self.ramp_pressure == 0.0:
+            return np.full_like(pressure, self.shear_strength)
+        return self.shear_strength * np.clip(pressure / self.ramp_pressure, 0.0, 1.0)
+
+    def cap_slope(self, pressure: np.ndarray, slipping: np.ndarray) -> np.ndarray:
+        """dc/dp of slipping nodes [-]: tau_c / p_r where 0 < p < p_r, else 0."""
+        if self.ramp_pressure == 0.0:
+            return np.zeros_like(pressure)
+        ramping = slipping & (pressure > 0.0) & (pressure < self.ramp_pressure)
+        return np.where(ramping, self.shear_strength / self.ramp_pressure, 0.0)
 
     def commit(self, response: ContactResponse) -> None:
         """Keep the stick offsets, slip states and multipliers of a converged step."""

@@ -4,10 +4,12 @@ Unknowns: the reduced displacement u_red (periodic, bottom fixed) and the flat h
 by the force condition r(h) = sum_k p_k a_k - F_n = 0 (force control, the paper's pilot node).
 Each Newton iteration solves the bordered system
 
-    [ K    b ] [du]     [R]          b = dR/dh,  c = dr/du = -b,  d = dr/dh = sum_k b_k
+    [ K    b ] [du]     [R]          b = dR/dh,  c = dr/du,  d = dr/dh = -sum_k c_k
     [ c^T  d ] [dh] = - [r]
 
-with one operator: K x1 = -R, K x2 = -b, dh = -(r + c.x1) / (c.x2 + d), du = x1 + dh x2.
+with one operator: K x1 = -R, K x2 = -b, dh = -(r + c.x1) / (c.x2 + d), du = x1 + dh x2
+(c = -b on the z rows; b also has x-y entries where a slipping node's shear cap follows its
+pressure, see :mod:`solver.contact`).
 A Newton solve is converged when ||R|| <= tol_R F_n, |r| <= tol_R F_n and the last
 max |du| <= tol_u h; a backtracking line search on ||R||^2 + r^2 damps contact overshoot, and a
 solve whose residual stops halving is abandoned (the step is then cut). A load step is converged
@@ -21,6 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from dolfinx.fem import petsc as fem_petsc
+from mpi4py import MPI
 from petsc4py import PETSc
 
 from solver.contact import ContactResponse, RigidFlat
@@ -130,8 +133,10 @@ class Equilibrium:
         self._tangent_full = self._elastic_tangent.duplicate(copy=True)
         self._residual_full = fem_petsc.create_vector(solid.residual_forms[0])
         self.tangent = None  # P^T K P + contact, created at the first assembly
+        self._symmetric = True  # the tangent, at its last assembly
         self.residual = reduction.create_reduced_vector()
         self._height_column = reduction.create_reduced_vector()  # b = dR/dh
+        self._force_row = reduction.create_reduced_vector()  # c = dr/du
         self._x1 = reduction.create_reduced_vector()
         self._x2 = reduction.create_reduced_vector()
 
@@ -173,8 +178,12 @@ class Equilibrium:
                                 addv=PETSc.InsertMode.ADD_VALUES)
         self.residual.assemble()
         self._height_column.set(0.0)
-        self._height_column.setValues(self._contact_rows[:, 2], contact.height_derivative)
+        self._height_column.setValues(self._contact_rows.ravel(),
+                                      contact.height_derivative.ravel())
         self._height_column.assemble()
+        self._force_row.set(0.0)  # r = sum p a - F_n: dr/du_z = eps a = -dR_z/dh
+        self._force_row.setValues(self._contact_rows[:, 2], -contact.height_derivative[:, 2])
+        self._force_row.assemble()
         return contact
 
     def assemble_tangent(self, contact: ContactResponse) -> None:
@@ -197,6 +206,7 @@ class Equilibrium:
         self.tangent.setValuesBlockedRCV(block_rows, block_rows, contact.stiffness.reshape(-1, 9),
                                          addv=PETSc.InsertMode.ADD_VALUES)
         self.tangent.assemble()
+        self._symmetric = self.comm.allreduce(contact.symmetric, op=MPI.LAND)
 
     # --- Newton -----------------------------------------------------------------------------
 
@@ -296,8 +306,8 @@ class Equilibrium:
     def _bordered_solve(self, force_error: float, tolerance: float) -> tuple[float, int]:
         """Solve the bordered Newton system to the relative ``tolerance``: du into x1; return
         (dh [m], Krylov iterations)."""
-        b = self._height_column
-        self.linear_solver.set_operator(self.tangent)
+        b, c = self._height_column, self._force_row
+        self.linear_solver.set_operator(self.tangent, self._symmetric)
         self.residual.scale(-1.0)
         krylov = self.linear_solver.solve(self.residual, self._x1, relative_tolerance=tolerance)
         b.scale(-1.0)
@@ -305,9 +315,8 @@ class Equilibrium:
         krylov += self.linear_solver.solve(b, self._x2, warm_start=True,
                                            relative_tolerance=tolerance)
         b.scale(-1.0)
-        d = b.sum()
-        # c = -b:  dh = -(r + c.x1) / (c.x2 + d) = (b.x1 - r) / (d - b.x2)
-        height_increment = (b.dot(self._x1) - force_error) / (d - b.dot(self._x2))
+        d = -c.sum()
+        height_increment = -(force_error + c.dot(self._x1)) / (c.dot(self._x2) + d)
         self._x1.axpy(height_increment, self._x2)
         return height_increment, krylov
 

@@ -2,8 +2,11 @@
 iterations and load steps.
 
 The reduced tangent is symmetric positive definite (J2 consistent tangent with hardening,
-penalty contact, and a friction slip tangent that is symmetric because the cap tau_c does not
-depend on the pressure), so both methods are preconditioned CG:
+penalty contact, the slip tangent of the friction cap), so both methods are preconditioned CG,
+except while a slipping node's cap follows its pressure (below the ramp pressure, see
+:mod:`solver.contact`): a few non-symmetric entries, for which the same preconditioner drives
+right-preconditioned GMRES (a Cholesky factorisation then uses the upper triangle: an
+approximate inverse, which GMRES corrects):
 
 * direct: the preconditioner is a MUMPS Cholesky factorisation. While it is fresh CG converges
   in one iteration; as the tangent drifts (plastic cells, contact set) the old factors keep
@@ -72,8 +75,14 @@ class LinearSolver:
         self.last_iterations = 0
         self.rebuilds = 0
 
-    def set_operator(self, matrix: PETSc.Mat) -> None:
-        """Use ``matrix`` (new values, same pattern) for the next solves."""
+    def set_operator(self, matrix: PETSc.Mat, symmetric: bool = True) -> None:
+        """Use ``matrix`` (new values, same pattern) for the next solves; CG if it is
+        ``symmetric``, else GMRES."""
+        krylov = "cg" if symmetric else "gmres"
+        if self.ksp.getType() != krylov:
+            self.ksp.setType(krylov)
+            self.ksp.setPCSide(PETSc.PC.Side.LEFT if symmetric else PETSc.PC.Side.RIGHT)
+            self.ksp.setNormType(PETSc.KSP.NormType.UNPRECONDITIONED)
         self.ksp.setOperators(matrix)
         if self._fresh_iterations is not None:
             limit = (MAX_REUSED_ITERATIONS if self.method == "direct"

@@ -47,6 +47,10 @@ class SolverOptions:
         Pressure at 1 point per cell (SRI, default) or at 2 x 2 x 2 points (locks).
     penalty : float
         Contact penalty eps_N = eps_T = penalty E' / h_grid [-].
+    friction_ramp : float
+        The shear cap tau_c min(1, p / p_r) rises with the contact pressure p up to
+        p_r = friction_ramp S_y [-]; 0 gives the paper's pure cap tau_c, with which a node at a
+        patch edge can have no consistent contact state (see :mod:`solver.contact`).
     penetration_tolerance : float
         Augmented Lagrangian: Uzawa updates until no contact node penetrates deeper than this
         times the grid spacing [-].
@@ -80,6 +84,7 @@ class SolverOptions:
     elastic: bool = False
     integration: str = "selective"
     penalty: float = 10.0
+    friction_ramp: float = 0.01
     penetration_tolerance: float = 1e-4
     max_augmentations: int = 10
     linear_solver: str = "auto"
@@ -106,6 +111,9 @@ class SolverOptions:
         for name in ("direct_limit", "max_iterations", "normal_increments", "max_steps"):
             if getattr(self, name) < 1:
                 raise InputError(f"solver option {name} must be >= 1, got {getattr(self, name)}")
+        if not (math.isfinite(self.friction_ramp) and 0.0 <= self.friction_ramp < 1.0):
+            raise InputError(f"solver option friction_ramp must lie in [0, 1), got "
+                             f"{self.friction_ramp}")
         if self.max_augmentations < 0:
             raise InputError(f"solver option max_augmentations must be >= 0, got "
                              f"{self.max_augmentations}")

@@ -83,6 +83,7 @@ def surface_contact(solid: Solid, block: Block, case: FemCase) -> RigidFlat:
         block.mesh.comm, on_surface, grid[on_surface, :2], n, heights, spacing**2,
         penalty=case.solver.penalty * material.E_star / spacing,
         shear_strength=material.tau_c,
+        ramp_pressure=case.solver.friction_ramp * material.Sy,
     )
 
 

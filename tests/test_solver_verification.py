@@ -211,6 +211,25 @@ def test_penalty_times_ten_or_a_tenth_changes_mu_s_by_less_than_one_percent():
     assert mu[100.0] == pytest.approx(mu[10.0], rel=0.01)
 
 
+# --- friction at the edge of a contact patch --------------------------------------------------
+
+def test_edge_node_with_vanishing_pressure_lets_the_contact_reach_sliding_inception():
+    """A random 16 x 16 surface at F* = 0.3, which with the pure cap tau_c stalled two nodes
+    short of inception (the edge node had no consistent state, see solver.contact): with the
+    pressure ramp of the cap it slides, and halving or doubling the ramp pressure barely moves
+    mu_s (measured: 0.41872 at p_r = 0.01 S_y, 0.41832 at 0.02 S_y, the stalled pure-cap run
+    had reached 0.41634 with 54 of 56 nodes slipping)."""
+    heights = np.random.default_rng(7).normal(0.0, 0.1 * SPACING, (16, 16))
+    mu = {}
+    for ramp in (0.01, 0.02):
+        result = run_case(heights, 0.3, friction_ramp=ramp).result
+        assert result.converged, result.message
+        last = result.records[-1]
+        assert last.slipping_nodes == last.contact_nodes > 50
+        mu[ramp] = result.mu_s
+    assert mu[0.02] == pytest.approx(mu[0.01], rel=0.005)
+
+
 # --- shared normal loading path ---------------------------------------------------------------
 
 def test_loads_sharing_one_preload_match_standalone_runs():
