@@ -21,7 +21,8 @@ off the flat (p < 0); released, it penetrates (measured on a random 16 x 16 surf
 F* = 0.3: one node with 0.82 tau_c of shear at p = -1 MPa in contact and penetrating out of
 contact, so Newton cycled until the step size vanished). The ramp makes the traction continuous
 in p, so such a node slips at a small traction. Its cost: nodes below p_r carry less than tau_c
-(G5 at F* = 0.155, N = 32: mu_s -0.003 % for p_r = 0.01 S_y, -0.6 % for 0.02 S_y).
+(G5 at F* = 0.155, N = 32: mu_s -0.04 % for p_r = 0.01 S_y, -0.8 % for 0.02 S_y, -2.4 % for
+0.05 S_y, against the pure cap, which converges there).
 
 Tangent of a slipping node: eps_T (c_k/|t*|) (I - n n^T) in the plane, which is symmetric, plus,
 below p_r, the coupling of its traction to its pressure, dt/dp = (tau_c/p_r) n, which is not
@@ -40,9 +41,11 @@ overshoots back and forth across the tiny stick cone |w - w_s| <= tau_c / eps_T.
 On commit w_s <- w - t/eps_T: a sticking node keeps its offset, a slipping node drags it. A node
 that was out of contact at the last converged step has no stick point yet: it carries no shear
 in the step in which it touches and sticks where it is at the end of that step (its stick point
-is taken at the end of the step rather than at its start). Otherwise a node that touches with a
-vanishing pressure would at once carry the full cap tau_c (the cap does not depend on p), a jump
-that makes such nodes flip in and out of contact from one Newton iterate to the next. Frictionless
+is taken at the end of the step rather than at its start). This rule came before the pressure
+ramp of the cap: with the pure cap a node touching at a vanishing pressure would at once carry
+tau_c, a jump that made such nodes flip in and out of contact from one Newton iterate to the
+next (with the ramp its cap is small there; whether the rule is still needed is not measured).
+Frictionless
 steps (``friction=False``, the normal preload) have t = 0 everywhere, so the first frictional
 step starts from full stick at every node in contact, as in the paper.
 

@@ -6,7 +6,8 @@ penalty contact, the slip tangent of the friction cap), so both methods are prec
 except while a slipping node's cap follows its pressure (below the ramp pressure, see
 :mod:`solver.contact`): a few non-symmetric entries, for which the same preconditioner drives
 right-preconditioned GMRES (a Cholesky factorisation then uses the upper triangle: an
-approximate inverse, which GMRES corrects):
+approximate inverse, which GMRES corrects; a random 16 x 16 surface at F* = 0.3 slides to the
+same mu_s, to 1e-9, with it as with GAMG):
 
 * direct: the preconditioner is a MUMPS Cholesky factorisation. While it is fresh CG converges
   in one iteration; as the tangent drifts (plastic cells, contact set) the old factors keep

@@ -22,7 +22,7 @@ from solver.results import StepRecord, count_patches
 GROWTH = 1.5
 #: Grow the step after at most this many Newton iterations [-]. 6 kept the slide increments of
 #: 2L at F* = 0.62 (N = 32), whose steps all take 10-15 iterations while ~500 nodes go from
-#: stick to slip, at 0.7 % of tau_c H / G: after 90 s 363 of 481 nodes slipped, F_t still
+#: stick to slip, at ~1 % of tau_c H / G: after 80 s 309 of 473 nodes slipped, F_t still
 #: rising. With 10: inception in 31 s, mu_s 0.4601 against 0.4536 with a 4x smaller largest
 #: slide increment (1.4 %, 122 s).
 EASY_ITERATIONS = 10
