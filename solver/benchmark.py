@@ -2,10 +2,11 @@
 
     python -m solver.benchmark --n 32 64 128 --ranks 2
 
-Writes ``results/bench/fem.csv`` (one row per N, rewritten after every run so that finished rows
-survive a later failure; rows of other N already in the file are kept) with wall time, peak
+Writes ``results/bench/fem.csv`` (one row per N and rank count, rewritten after every run so that
+finished rows survive a later failure; rows of other N or rank counts already in the file are
+kept: ``--ranks 1`` adds the serial rows beside the two-rank ones) with wall time, peak
 memory summed over the ranks, steps, Newton iterations, mu_s and the problem size; each run's
-full record goes to ``results/bench/fem_G5_N<N>.h5``.
+full record goes to ``results/bench/fem_G5_N<N>_<ranks>ranks.h5``.
 """
 
 from __future__ import annotations
@@ -28,7 +29,7 @@ COLUMNS = ("n", "ranks", "cells", "reduced_dofs", "linear_solver", "wall_s", "pe
 
 def run_size(n: int, ranks: int) -> dict:
     """Run one grid size through ``python -m solver.command`` under mpirun; return its row."""
-    output = BENCH_DIR / f"fem_{SURFACE}_N{n}.h5"
+    output = BENCH_DIR / f"fem_{SURFACE}_N{n}_{ranks}ranks.h5"
     command = ["mpirun", "-n", str(ranks), "--oversubscribe", sys.executable, "-m",
                "solver.command", SURFACE, "--load", str(LOAD), "--n", str(n), "--json",
                "--output", str(output)]
@@ -56,24 +57,24 @@ def write_csv(rows: list[dict], path: Path) -> None:
         writer.writerows(rows)
 
 
-def read_rows(path: Path) -> dict[int, dict]:
-    """The rows of an existing benchmark table, by N (empty if there is none)."""
+def read_rows(path: Path) -> dict[tuple[int, int], dict]:
+    """The rows of an existing benchmark table, by (N, ranks) (empty if there is none)."""
     if not path.exists():
         return {}
     with open(path, newline="") as file:
-        return {int(row["n"]): row for row in csv.DictReader(file)}
+        return {(int(row["n"]), int(row["ranks"])): row for row in csv.DictReader(file)}
 
 
 def benchmark_sizes(sizes: list[int], ranks: int) -> list[dict]:
-    """Run every grid size in turn; rewrite ``fem.csv`` after each (keeping rows of other N);
-    return the new rows."""
+    """Run every grid size in turn; rewrite ``fem.csv`` after each (keeping rows of other N or
+    rank counts); return the new rows."""
     BENCH_DIR.mkdir(parents=True, exist_ok=True)
     table = BENCH_DIR / "fem.csv"
     rows = []
     for n in sizes:
         rows.append(run_size(n, ranks))
-        kept = {**read_rows(table), n: rows[-1]}
-        write_csv([kept[size] for size in sorted(kept)], table)
+        kept = {**read_rows(table), (n, ranks): rows[-1]}
+        write_csv([kept[key] for key in sorted(kept)], table)
         print(json.dumps(rows[-1]), file=sys.stderr, flush=True)
     return rows
 
