@@ -2,7 +2,9 @@
 
 The key is the SHA-256 of everything that determines a run: the case (``FemCase.inputs()``:
 surface digest, loading, material, mesh and solver options), the *physics version* (the SHA-256
-of the source text of the modules that compute results) and the entry format. The number of MPI
+of the code of the modules that compute results, without comments and docstrings: editing the
+documentation keeps the runs, editing a statement or a constant discards them) and the entry
+format. The number of MPI
 ranks is not part of it: runs agree to 1e-6 across rank counts (``tests/test_solver_mpi.py``).
 
 An entry is finished when its file exists under its final name. Entries are written by
@@ -21,6 +23,7 @@ Imports without dolfinx; the FEM stack is imported when a run is computed.
 from __future__ import annotations
 
 import argparse
+import ast
 import hashlib
 import json
 import os
@@ -59,13 +62,27 @@ def physics_files(root: Path = ROOT) -> list[Path]:
     return solver + [Path(root) / "geometry" / "mesh.py", Path(root) / "geometry" / "surface.py"]
 
 
+def code_without_documentation(source: str) -> str:
+    """The abstract syntax tree of Python ``source`` as text, without its comments (the parser
+    drops them), docstrings (module, class, function) and line numbers."""
+    tree = ast.parse(source)
+    for node in ast.walk(tree):
+        if isinstance(node, (ast.Module, ast.ClassDef, ast.FunctionDef, ast.AsyncFunctionDef)):
+            body = node.body
+            if (body and isinstance(body[0], ast.Expr) and isinstance(body[0].value, ast.Constant)
+                    and isinstance(body[0].value.value, str)):
+                node.body = body[1:] or [ast.Pass()]
+    return ast.dump(tree)
+
+
 def physics_version(root: Path = ROOT) -> str:
-    """SHA-256 of the names and contents of :func:`physics_files` (from the files, not git)."""
+    """SHA-256 of the names and code (:func:`code_without_documentation`) of
+    :func:`physics_files` (from the files, not git)."""
     digest = hashlib.sha256()
     for path in physics_files(root):
-        text = path.read_bytes()
-        digest.update(f"{path.relative_to(root).as_posix()}\0{len(text)}\0".encode())
-        digest.update(text)
+        code = code_without_documentation(path.read_text()).encode()
+        digest.update(f"{path.relative_to(root).as_posix()}\0{len(code)}\0".encode())
+        digest.update(code)
     return digest.hexdigest()
 
 
