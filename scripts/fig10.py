@@ -11,6 +11,7 @@ def make(runs):
     fig, ax = new_axes()
     ax.plot(columns["load_star"], columns["nodes_per_patch"], "o-", label=fem_label(runs))
     ax.axhline(4.0, color="k", ls=":", lw=1, label="4 nodes per patch")
+    ax.set_yscale("log")  # patches merge at high load: ~5 to ~300 nodes per patch
     ax.set_xlabel("$F^* = F_n / (A_n S_y)$ (–)")
     ax.set_ylabel("contact nodes per patch $N_{pl} / N_A$ (–)")
     ax.set_title(f"Nodes per contact patch, {SURFACE} (stand-in)")
