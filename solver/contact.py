@@ -13,6 +13,16 @@ tributary area a_k = h_grid^2 of the projected surface) has
   committed stick offset, the trial traction is t* = eps_T (w_k - w_s,k); the node sticks if
   |t*| <= c_k, else slips with t = c_k t*/|t*|, under the cap c_k = tau_c min(1, p_k / p_r).
 
+The stick penalty eps_T is a tenth of eps_N by default (``SolverOptions.tangential_penalty``).
+With eps_T = eps_N = 10 E'/h the stick cone |w - w_s| <= tau_c / eps_T is ~1e-9 m at N = 32,
+the size of the slide increments near inception at high load: there hundreds of nodes flipped
+between stick and slip from one Newton iterate to the next, every step took 11-15 iterations
+and the increments could not grow (8L at F* = 0.93: 145 sliding steps of ~2e-9 m, 313 s; G7,
+G8, G9, 2L, 8L at F* = 1.86 hit the step limit). With eps_T = eps_N / 10: 8L at F* = 0.93 in
+11 sliding steps, 30 s, mu_s 0.4189 against 0.4187; G7 at F* = 1.86 converges in 31 s. mu_s
+does not depend on it: eps_T / eps_N = 0.01, 0.1, 1 give 0.4189, 0.4189, 0.4187 (8L, F* = 0.93)
+and 0.7565, 0.7564, 0.7566 (G5, F* = 0.155).
+
 The cap is the paper's tau_c wherever the pressure exceeds the ramp pressure p_r (0.01 S_y by
 default) and falls linearly to 0 with the pressure below it: ANSYS's form min(mu p, tau_max) of
 the maximum shear stress criterion, with mu = tau_c / p_r. With the pure cap tau_c (p_r -> 0) a
@@ -34,9 +44,9 @@ from CG to GMRES).
 
 Tangential predictor: at the first Newton iteration of a tangential step, nodes that stuck at
 the last converged step keep the uncapped (linear) stick law. Without it, the trial traction
-eps_T dU of a whole slide increment exceeds tau_c everywhere (eps_T is much stiffer than the
-solid), every node "slips", the slip tangent has no stiffness along the slide and Newton
-overshoots back and forth across the tiny stick cone |w - w_s| <= tau_c / eps_T.
+eps_T dU of a whole slide increment exceeds tau_c everywhere (eps_T is stiffer than the
+solid under a node), every node "slips", the slip tangent has no stiffness along the slide
+and Newton overshoots back and forth across the small stick cone |w - w_s| <= tau_c / eps_T.
 
 On commit w_s <- w - t/eps_T: a sticking node keeps its offset, a slipping node drags it. A node
 that was out of contact at the last converged step has no stick point yet: it carries no shear
@@ -119,16 +129,18 @@ class RigidFlat:
     area : float
         Tributary (projected) area per node a = h^2 [m^2].
     penalty : float
-        Normal and tangential penalty eps_N = eps_T [Pa/m].
+        Normal penalty eps_N [Pa/m].
     shear_strength : float
         tau_c [Pa].
     ramp_pressure : float
         p_r: the cap is tau_c min(1, p / p_r) [Pa]; 0 for the pure cap tau_c.
+    tangential_penalty : float, optional
+        Stick penalty eps_T [Pa/m]; default eps_N.
     """
 
     def __init__(self, comm, nodes: np.ndarray, grid_index: np.ndarray, grid_size: int,
                  heights: np.ndarray, area: float, penalty: float, shear_strength: float,
-                 ramp_pressure: float = 0.0):
+                 ramp_pressure: float = 0.0, tangential_penalty: float | None = None):
         self.comm = comm
         self.nodes = nodes
         self.grid_index = grid_index
@@ -136,6 +148,7 @@ class RigidFlat:
         self.heights = heights
         self.area = area
         self.penalty = penalty
+        self.tangential_penalty = penalty if tangential_penalty is None else tangential_penalty
         self.shear_strength = shear_strength
         self.ramp_pressure = ramp_pressure
         self.stick_offset = np.zeros((len(nodes), 2))
@@ -167,13 +180,13 @@ class RigidFlat:
             a converged iterate under the free law).
         """
         u = displacement[self.nodes]
-        a, eps = self.area, self.penalty
+        a, eps, eps_t = self.area, self.penalty, self.tangential_penalty
         gap = flat_height - (self.heights + u[:, 2])
         trial_pressure = self.multiplier - eps * gap
         in_contact = trial_pressure > 0.0 if active is None else active
         pressure = np.where(in_contact, trial_pressure, 0.0)
         relative = np.column_stack([flat_slide - u[:, 0], -u[:, 1]])  # w [m]
-        trial = eps * (relative - self.stick_offset)
+        trial = eps_t * (relative - self.stick_offset)
         trial_norm = np.linalg.norm(trial, axis=1)
         frictional = in_contact & friction & self.anchored
         capped = self.slipped if predictor else frictional
@@ -186,7 +199,7 @@ class RigidFlat:
         tangential = np.eye(2) - np.where(slipping, 1.0, 0.0)[:, None, None] * np.einsum(
             "ni,nj->nij", direction, direction)
         stiffness = np.zeros((len(u), 3, 3))
-        stiffness[:, :2, :2] = (np.where(frictional, eps * a * scale, 0.0)[:, None, None]
+        stiffness[:, :2, :2] = (np.where(frictional, eps_t * a * scale, 0.0)[:, None, None]
                                 * tangential)
         stiffness[:, 2, 2] = np.where(in_contact, eps * a, 0.0)
         # below p_r a slipping node's traction c(p) n follows its pressure p = lambda - eps g:
@@ -201,7 +214,7 @@ class RigidFlat:
             slipping=slipping,
             pressure=pressure,
             traction=traction,
-            stick_offset=relative - traction / eps,
+            stick_offset=relative - traction / eps_t,
             force=force,
             stiffness=stiffness,
             height_derivative=height_derivative,

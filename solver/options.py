@@ -46,7 +46,10 @@ class SolverOptions:
     integration : {"selective", "full"}
         Pressure at 1 point per cell (SRI, default) or at 2 x 2 x 2 points (locks).
     penalty : float
-        Contact penalty eps_N = eps_T = penalty E' / h_grid [-].
+        Normal contact penalty eps_N = penalty E' / h_grid [-].
+    tangential_penalty : float
+        Stick penalty eps_T = tangential_penalty eps_N [-] (see :mod:`solver.contact`: a
+        tenth keeps Newton from flipping stick and slip near inception; mu_s does not change).
     friction_ramp : float
         The shear cap tau_c min(1, p / p_r) rises with the contact pressure p up to
         p_r = friction_ramp S_y [-]; 0 gives the paper's pure cap tau_c, with which a node at a
@@ -84,6 +87,7 @@ class SolverOptions:
     elastic: bool = False
     integration: str = "selective"
     penalty: float = 10.0
+    tangential_penalty: float = 0.1
     friction_ramp: float = 0.01
     penetration_tolerance: float = 1e-4
     max_augmentations: int = 10
@@ -103,7 +107,7 @@ class SolverOptions:
         if self.linear_solver not in LINEAR_SOLVERS:
             raise InputError(
                 f"linear solver must be one of {LINEAR_SOLVERS}, got {self.linear_solver!r}")
-        positive = ("penalty", "penetration_tolerance", "residual_tolerance",
+        positive = ("penalty", "tangential_penalty", "penetration_tolerance", "residual_tolerance",
                     "increment_tolerance", "first_slide", "max_slide")
         for name, value in ((name, getattr(self, name)) for name in positive):
             if not (math.isfinite(value) and value > 0):

@@ -79,11 +79,13 @@ def surface_contact(solid: Solid, block: Block, case: FemCase) -> RigidFlat:
         raise RuntimeError(f"{owned_positions} surface nodes own the {n * n} grid positions")
     heights = V.tabulate_dof_coordinates()[on_surface, 2]
     material, spacing = case.material, block.spacing
+    penalty = case.solver.penalty * material.E_star / spacing
     return RigidFlat(
         block.mesh.comm, on_surface, grid[on_surface, :2], n, heights, spacing**2,
-        penalty=case.solver.penalty * material.E_star / spacing,
+        penalty=penalty,
         shear_strength=material.tau_c,
         ramp_pressure=case.solver.friction_ramp * material.Sy,
+        tangential_penalty=case.solver.tangential_penalty * penalty,
     )
 
 

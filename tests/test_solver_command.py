@@ -84,7 +84,9 @@ def test_unknown_case_file_keys(rough_file, tmp_path, capsys):
 
 @pytest.mark.parametrize("options", [{"integration": "reduced"}, {"linear_solver": "lu"},
                                      {"penalty": 0.0}, {"max_iterations": 0},
-                                     {"friction_ramp": -0.01}, {"friction_ramp": 1.0}])
+                                     {"friction_ramp": -0.01}, {"friction_ramp": 1.0},
+                                     {"tangential_penalty": 0.0},
+                                     {"tangential_penalty": float("nan")}])
 def test_bad_solver_options(options):
     with pytest.raises(InputError):
         SolverOptions(**options)

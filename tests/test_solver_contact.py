@@ -12,11 +12,12 @@ PENALTY = 1e18  # [Pa/m]
 AREA = 1e-12  # [m^2]
 
 
-def flat_over(heights, ramp=RAMP):
-    """A flat over len(heights) surface nodes whose displacement rows are 0, 1, ..."""
+def flat_over(heights, ramp=RAMP, tangential=PENALTY):
+    """A flat over len(heights) surface nodes whose displacement rows are 0, 1, ...
+    (``tangential``: the stick penalty eps_T [Pa/m])."""
     n = len(heights)
     return RigidFlat(MPI.COMM_SELF, np.arange(n), np.column_stack([np.arange(n), np.zeros(n)]),
-                     n, np.asarray(heights, float), AREA, PENALTY, TAU_C, ramp)
+                     n, np.asarray(heights, float), AREA, PENALTY, TAU_C, ramp, tangential)
 
 
 def anchored(flat):
@@ -57,13 +58,30 @@ def test_slipping_node_carries_the_cap_along_the_trial_direction(pressure):
     np.testing.assert_allclose(response.stick_offset[0], [slide - cap / PENALTY, 0.0])
 
 
-def test_node_below_its_cap_sticks_with_the_full_penalty():
-    flat = anchored(flat_over([0.0]))
-    slide = 0.5 * TAU_C / PENALTY
+@pytest.mark.parametrize("tangential", [PENALTY, 0.1 * PENALTY])
+def test_node_below_its_cap_sticks_with_the_full_stick_penalty(tangential):
+    flat = anchored(flat_over([0.0], tangential=tangential))
+    slide = 0.5 * TAU_C / tangential
     response = flat.respond(np.zeros((1, 3)), -1e9 / PENALTY, slide, friction=True)
     assert not response.slipping[0]
     np.testing.assert_allclose(response.traction[0], [0.5 * TAU_C, 0.0])
-    np.testing.assert_allclose(response.stiffness[0][:2, :2], PENALTY * AREA * np.eye(2))
+    np.testing.assert_allclose(response.stiffness[0][:2, :2], tangential * AREA * np.eye(2))
+    assert response.stiffness[0][2, 2] == pytest.approx(PENALTY * AREA)
+    np.testing.assert_allclose(response.stick_offset[0], [0.0, 0.0], atol=1e-12 * slide)
+
+
+def test_slipping_node_drags_its_stick_point_to_the_cap_over_the_stick_penalty():
+    """On commit the stick point lies tau_c / eps_T behind the flat: a softer eps_T widens the
+    stick cone, and the next step's trial traction starts from the cap again."""
+    for tangential in (PENALTY, 0.1 * PENALTY):
+        flat = anchored(flat_over([0.0], tangential=tangential))
+        slide = 3 * TAU_C / tangential
+        response = flat.respond(np.zeros((1, 3)), -1e9 / PENALTY, slide, friction=True)
+        assert response.slipping[0]
+        np.testing.assert_allclose(response.stick_offset[0], [slide - TAU_C / tangential, 0.0])
+        flat.commit(response)
+        again = flat.respond(np.zeros((1, 3)), -1e9 / PENALTY, slide, friction=True)
+        np.testing.assert_allclose(again.traction[0], [TAU_C, 0.0])
 
 
 def test_node_at_vanishing_pressure_carries_vanishing_shear():
@@ -92,13 +110,15 @@ def test_frictionless_open_and_newly_touching_nodes_carry_no_shear():
     np.testing.assert_allclose(frictionless.traction, 0.0)
 
 
+@pytest.mark.parametrize("tangential", [PENALTY, 0.1 * PENALTY])
 @pytest.mark.parametrize("pressure, slide", [(2.5e6, 3.0), (1e9, 3.0), (1e9, 0.5), (2.5e6, 0.5)])
-def test_tangent_and_height_derivative_match_finite_differences(pressure, slide):
+def test_tangent_and_height_derivative_match_finite_differences(pressure, slide, tangential):
     """dR/du (3 x 3 block) and dR/dh of a node slipping below and above p_r and sticking, against
-    central differences of the residual force (the trial traction at 30 degrees from x)."""
-    flat = anchored(flat_over([0.0]))
-    flat.stick_offset[:] = [[0.0, -0.5 * slide * TAU_C / PENALTY]]
-    height, flat_slide = -pressure / PENALTY, slide * TAU_C / PENALTY * np.sqrt(0.75)
+    central differences of the residual force (the trial traction at 30 degrees from x), with
+    eps_T = eps_N and eps_T = eps_N / 10."""
+    flat = anchored(flat_over([0.0], tangential=tangential))
+    flat.stick_offset[:] = [[0.0, -0.5 * slide * TAU_C / tangential]]
+    height, flat_slide = -pressure / PENALTY, slide * TAU_C / tangential * np.sqrt(0.75)
     response = flat.respond(np.zeros((1, 3)), height, flat_slide, friction=True)
     step = 1e-4 * pressure / PENALTY  # [m], well inside every regime
 

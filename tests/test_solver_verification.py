@@ -211,6 +211,17 @@ def test_penalty_times_ten_or_a_tenth_changes_mu_s_by_less_than_one_percent():
     assert mu[100.0] == pytest.approx(mu[10.0], rel=0.01)
 
 
+def test_stick_penalty_times_ten_or_a_tenth_changes_mu_s_by_less_than_one_percent():
+    """eps_T = 0.1 eps_N by default (solver.contact: the stiff stick law made Newton flip stick
+    and slip near inception). Measured at N = 32: 8L at F* = 0.93 gives mu_s 0.4189, 0.4189,
+    0.4187 and G5 at F* = 0.155 0.7565, 0.7564, 0.7566 for eps_T / eps_N = 0.01, 0.1, 1."""
+    heights = np.random.default_rng(7).normal(0.0, 0.1 * SPACING, (8, 8))
+    mu = {ratio: run_case(heights, 0.155, tangential_penalty=ratio).result.mu_s
+          for ratio in (0.01, 0.1, 1.0)}
+    assert mu[0.01] == pytest.approx(mu[0.1], rel=0.01)
+    assert mu[1.0] == pytest.approx(mu[0.1], rel=0.01)
+
+
 # --- friction at the edge of a contact patch --------------------------------------------------
 
 def test_edge_node_with_vanishing_pressure_lets_the_contact_reach_sliding_inception():
