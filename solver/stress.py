@@ -268,7 +268,8 @@ def cell_text(row: dict) -> str:
     if row["kind"] in OPTIONS and row.get("mu_s_change") is not None:
         text += f" ({100 * row['mu_s_change']:+.1f} %)"
     if row["outcome"] == CUT:
-        text += f" ({row['cut_steps']} cuts)"
+        cuts = row["cut_steps"]
+        text += f" ({cuts} cut{'s' if cuts != 1 else ''})"
     if row.get("reliable") is False:
         text += f" {UNRELIABLE_MARK}"
     return text

@@ -247,6 +247,7 @@ def test_cells_show_mu_s_cuts_failures_and_unreliability():
     rows = synthetic_table()
     assert cell_text(rows[0]) == f"0.900 {UNRELIABLE_MARK}"
     assert cell_text(rows[1]) == "0.500 (2 cuts)"
+    assert cell_text({**rows[1], "cut_steps": 1}) == "0.500 (1 cut)"
     assert cell_text(rows[2]) == "FAILED"
     assert cell_text(rows[4]) == "0.410 (+2.5 %)"
     assert cell_text({**rows[3], "outcome": SILENT}) == "**SILENT**"
