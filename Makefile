@@ -83,9 +83,11 @@ gallery: figures
 bench-multiscale: setup
 	@$(VENV)/bin/roughfriction bench multiscale
 
-# G5 at F* = 0.155 with N = 32, 64, 128 on $(NP) ranks -> results/bench/fem.csv
+# G5 at F* = 0.155 with N = $(BENCH_N) on $(NP) ranks -> results/bench/fem.csv (a row per N and
+# rank count: `make bench-fem NP=1 BENCH_N="32 64"` adds serial rows)
+BENCH_N ?= 32 64 128
 bench-fem: setup
-	@$(PY) -m solver.benchmark --n 32 64 128 --ranks $(NP)
+	@$(PY) -m solver.benchmark --n $(BENCH_N) --ranks $(NP)
 	@mkdir -p docs/bench && cp results/bench/fem.csv docs/bench/
 
 # Run time against error (solver/convergence.py): G5 at F* = 0.155 and 0.93, 2L at 0.5 and the
