@@ -55,9 +55,8 @@ is taken at the end of the step rather than at its start). This rule came before
 ramp of the cap: with the pure cap a node touching at a vanishing pressure would at once carry
 tau_c, a jump that made such nodes flip in and out of contact from one Newton iterate to the
 next (with the ramp its cap is small there; whether the rule is still needed is not measured).
-Frictionless
-steps (``friction=False``, the normal preload) have t = 0 everywhere, so the first frictional
-step starts from full stick at every node in contact, as in the paper.
+Frictionless steps (``friction=False``, the normal preload) have t = 0 everywhere, so the first
+frictional step starts from full stick at every node in contact, as in the paper.
 
 Signs: R = f_int - f_ext. The flat pushes the node with -p a e_z and drags it with t a, so the
 node's residual gains (-t_x a, -t_y a, p a), and dR_z/dh = -eps_N a on nodes in contact.
@@ -134,13 +133,13 @@ class RigidFlat:
         tau_c [Pa].
     ramp_pressure : float
         p_r: the cap is tau_c min(1, p / p_r) [Pa]; 0 for the pure cap tau_c.
-    tangential_penalty : float, optional
-        Stick penalty eps_T [Pa/m]; default eps_N.
+    tangential_penalty : float
+        Stick penalty eps_T [Pa/m].
     """
 
     def __init__(self, comm, nodes: np.ndarray, grid_index: np.ndarray, grid_size: int,
                  heights: np.ndarray, area: float, penalty: float, shear_strength: float,
-                 ramp_pressure: float = 0.0, tangential_penalty: float | None = None):
+                 ramp_pressure: float, tangential_penalty: float):
         self.comm = comm
         self.nodes = nodes
         self.grid_index = grid_index
@@ -148,7 +147,7 @@ class RigidFlat:
         self.heights = heights
         self.area = area
         self.penalty = penalty
-        self.tangential_penalty = penalty if tangential_penalty is None else tangential_penalty
+        self.tangential_penalty = tangential_penalty
         self.shear_strength = shear_strength
         self.ramp_pressure = ramp_pressure
         self.stick_offset = np.zeros((len(nodes), 2))

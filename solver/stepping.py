@@ -24,7 +24,7 @@ GROWTH = 1.5
 #: 2L at F* = 0.62 (N = 32), whose steps all take 10-15 iterations while ~500 nodes go from
 #: stick to slip, at ~1 % of tau_c H / G: after 80 s 309 of 473 nodes slipped, F_t still
 #: rising. With 10: inception in 31 s, mu_s 0.4601 against 0.4536 with a 4x smaller largest
-#: slide increment (1.4 %, 122 s).
+#: slide increment (1.4 %, 122 s). (All measured before the stick penalty eps_T = eps_N / 10.)
 EASY_ITERATIONS = 10
 MIN_FRACTION = 1e-3
 #: Largest preload increment as a fraction of F_n [-] (the plastic path is load-dependent;
