@@ -228,8 +228,8 @@ def test_edge_node_with_vanishing_pressure_lets_the_contact_reach_sliding_incept
     """A random 16 x 16 surface at F* = 0.3, which with the pure cap tau_c stalled two nodes
     short of inception (the edge node had no consistent state, see solver.contact): with the
     pressure ramp of the cap it slides, and halving or doubling the ramp pressure barely moves
-    mu_s (measured: 0.41868 at p_r = 0.01 S_y, 0.41819 at 0.02 S_y; the pure cap still fails
-    with 54 of 56 nodes slipping)."""
+    mu_s (measured with eps_T = eps_N: 0.41868 at p_r = 0.01 S_y, 0.41819 at 0.02 S_y; the pure
+    cap fails with 54 of 56 nodes slipping)."""
     heights = np.random.default_rng(7).normal(0.0, 0.1 * SPACING, (16, 16))
     mu = {}
     for ramp in (0.01, 0.02):
