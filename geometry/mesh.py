@@ -71,7 +71,9 @@ class MeshOptions:
         Layers of thickness h (the grid spacing) over which the roughness fades to flat [-].
     fine_layers : int
         Layers at the full lateral resolution (thickness h) from the surface down, blend layers
-        included [-]; ``blend_layers`` if smaller.
+        included [-]; ``blend_layers`` if smaller. 4 against 6 (measured): N = 32, F* = 0.93,
+        run time -38 %, mu_s -0.10 % (G5) and +0.0005 % (8L); G5 at N = 128, F* = 0.155:
+        1196 s -> 654 s, mu_s 0.40937 -> 0.40955 (+0.04 %).
     coarsen : bool
         Below the fine layers, halve the lateral resolution level by level (2:1, hanging nodes
         tied exactly), while N stays divisible and at least 2 cells per side remain.
@@ -85,7 +87,7 @@ class MeshOptions:
     """
 
     blend_layers: int = 4
-    fine_layers: int = 6
+    fine_layers: int = 4
     coarsen: bool = True
     growth: float = 1.4
     depth: float = 1.0

@@ -72,7 +72,8 @@ class SolverOptions:
     increment_tolerance : float
         Newton: max |du| below this times the grid spacing [-].
     max_iterations : int
-        Newton iterations before a step is cut [-].
+        Newton iterations per active-set round before a step is cut [-] (up to
+        ``solver.equilibrium.MAX_ROUNDS`` rounds while the contact set settles).
     normal_increments : int
         Initial number of preload increments [-] (adapted).
     first_slide : float
