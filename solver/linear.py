@@ -16,7 +16,11 @@ same mu_s, to 1e-9, with it as with GAMG):
 * iterative: CG + GAMG with the rigid-body near-nullspace; the hierarchy is rebuilt when the
   iterations grow past ``REBUILD_FACTOR`` times the count of the freshly built preconditioner.
 
-Either way a solve that fails with a reused preconditioner is retried once with a fresh one.
+Either way a solve that fails with a reused preconditioner is retried once with a fresh one,
+and a CG solve that finds the fresh preconditioner or the operator indefinite is retried with
+GMRES (G5 at N = 32 with the contact penalty x10, its preload continued from F* = 0.01 to 0.155:
+GAMG-preconditioned CG stopped with DIVERGED_INDEFINITE_PC after 3-5 iterations at every
+attempt and the run failed; GMRES with the same preconditioner converges).
 """
 
 from __future__ import annotations
@@ -28,6 +32,9 @@ class LinearSolveError(RuntimeError):
     """The Krylov solver diverged or hit its iteration limit (the Newton step is cut)."""
 
 
+#: CG failures that GMRES, which needs neither a definite operator nor preconditioner, may cure.
+INDEFINITE = (PETSc.KSP.ConvergedReason.DIVERGED_INDEFINITE_PC,
+              PETSc.KSP.ConvergedReason.DIVERGED_INDEFINITE_MAT)
 #: Rebuild the reused GAMG hierarchy when the iterations grow past this factor [-].
 REBUILD_FACTOR = 1.5
 #: Refactorise the reused Cholesky factors when CG needs more iterations than this [-].
@@ -79,16 +86,19 @@ class LinearSolver:
     def set_operator(self, matrix: PETSc.Mat, symmetric: bool = True) -> None:
         """Use ``matrix`` (new values, same pattern) for the next solves; CG if it is
         ``symmetric``, else GMRES."""
-        krylov = "cg" if symmetric else "gmres"
-        if self.ksp.getType() != krylov:
-            self.ksp.setType(krylov)
-            self.ksp.setPCSide(PETSc.PC.Side.LEFT if symmetric else PETSc.PC.Side.RIGHT)
-            self.ksp.setNormType(PETSc.KSP.NormType.UNPRECONDITIONED)
+        self._use("cg" if symmetric else "gmres")
         self.ksp.setOperators(matrix)
         if self._fresh_iterations is not None:
             limit = (MAX_REUSED_ITERATIONS if self.method == "direct"
                      else REBUILD_FACTOR * self._fresh_iterations)
             self._rebuild = self._rebuild or self.last_iterations > limit
+
+    def _use(self, krylov: str) -> None:
+        """Switch to CG (left-preconditioned) or GMRES (right-preconditioned)."""
+        if self.ksp.getType() != krylov:
+            self.ksp.setType(krylov)
+            self.ksp.setPCSide(PETSc.PC.Side.LEFT if krylov == "cg" else PETSc.PC.Side.RIGHT)
+            self.ksp.setNormType(PETSc.KSP.NormType.UNPRECONDITIONED)
 
     def solve(self, rhs: PETSc.Vec, solution: PETSc.Vec, warm_start: bool = False,
               relative_tolerance: float | None = None) -> int:
@@ -102,6 +112,10 @@ class LinearSolver:
             fresh = True
             self.ksp.setInitialGuessNonzero(False)
             self._apply(rhs, solution, fresh)
+        if self.ksp.getConvergedReason() in INDEFINITE:
+            self._use("gmres")  # until the next set_operator
+            self.ksp.setInitialGuessNonzero(False)
+            self._apply(rhs, solution, fresh=False)
         if self.ksp.getConvergedReason() < 0:
             raise LinearSolveError(f"linear solver failed ({self.method}, reason "
                                    f"{self.ksp.getConvergedReason()})")

@@ -1,0 +1,48 @@
+"""Linear solves of solver.linear: the GMRES retry of a CG solve that meets indefiniteness."""
+
+import pytest
+
+pytest.importorskip("dolfinx")
+
+from mpi4py import MPI  # noqa: E402
+from petsc4py import PETSc  # noqa: E402
+
+from solver.linear import LinearSolveError, LinearSolver  # noqa: E402
+
+pytestmark = pytest.mark.fem
+
+
+def shifted_laplacian(size: int = 400, shift: float = 0.002) -> PETSc.Mat:
+    """tridiag(-1, 2 - shift, -1): symmetric, with a few negative eigenvalues (the smallest
+    of tridiag(-1, 2, -1) are (k pi / (size + 1))^2)."""
+    matrix = PETSc.Mat().createAIJ([size, size], nnz=3, comm=MPI.COMM_SELF)
+    for i in range(size):
+        matrix.setValue(i, i, 2.0 - shift)
+        for j in (i - 1, i + 1):
+            if 0 <= j < size:
+                matrix.setValue(i, j, -1.0)
+    matrix.assemble()
+    return matrix
+
+
+def solve(matrix: PETSc.Mat) -> float:
+    """Relative residual ||A x - b|| / ||b|| of the iterative solver's solution for b = 1."""
+    rhs = matrix.createVecLeft()
+    rhs.set(1.0)
+    solution, residual = rhs.duplicate(), rhs.duplicate()
+    solver = LinearSolver(MPI.COMM_SELF, "iterative")
+    solver.set_operator(matrix, symmetric=True)
+    solver.solve(rhs, solution)
+    matrix.mult(solution, residual)
+    residual.axpy(-1.0, rhs)
+    return residual.norm() / rhs.norm()
+
+
+def test_cg_meeting_an_indefinite_operator_is_retried_with_gmres():
+    assert solve(shifted_laplacian()) < 1e-7
+
+
+def test_without_the_retry_the_same_solve_fails(monkeypatch):
+    monkeypatch.setattr("solver.linear.INDEFINITE", ())
+    with pytest.raises(LinearSolveError, match="reason -8"):
+        solve(shifted_laplacian())
