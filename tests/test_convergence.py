@@ -25,6 +25,7 @@ from solver.convergence import (
     fem_case,
     finest_converged,
     mark_defaults,
+    mesh_lines,
     mode_amplitude,
     pareto_front,
     plot_error,
@@ -187,6 +188,14 @@ def test_check_lines_print_every_doubling_and_the_verdict():
     assert "NONE" in check_lines(changes, None, 0.02)[-1]
     failed = check_lines({16: {"a": math.nan}}, None, 0.02)[2]
     assert "no mu_s" in failed and failed.endswith("FAIL")
+
+
+def test_mesh_lines_compare_the_spectral_run_with_its_coarse_surface():
+    lines = mesh_lines(synthetic_rows(MU))
+    assert len(lines) == 2  # the heading and the one sliding case (not the sinusoid)
+    assert lines[1].split()[:2] == ["16^2", "on"] and G5_LOW.label in lines[1]
+    assert f"{100 * (0.505 / 0.51 - 1):+.2f}%" in lines[1]
+    assert mesh_lines([]) == []
 
 
 @pytest.mark.parametrize("times, errors, front", [
