@@ -10,8 +10,8 @@ lambda and A_r/A_n = 1). Each case is run
 
 * at every resolution of :data:`SIZES` (the built-in 128^2 surface re-gridded to N x N, as
   ``--n N`` does: a coarser N is a smoother surface, not only a coarser mesh);
-* with the second-finest surface spectrally interpolated onto the finest grid (the same surface
-  on a finer mesh: the mesh error alone);
+* with each surface of the sweep but the finest spectrally interpolated onto the next finer
+  grid (the same surface on a 2x finer mesh: the mesh error alone, at every N);
 * with each knob of :data:`VARIANTS` changed alone from the defaults, at :data:`BASE_N`.
 
 Every run is a :class:`~solver.options.FemCase` through the run cache (``results/runs``): a
@@ -44,7 +44,15 @@ from pathlib import Path
 import numpy as np
 
 from geometry.surface import Surface
-from solver.batch import BENCH_DIR, batch_plan, compute_batch, csv_text, summary_columns, write_text
+from solver.batch import (
+    BENCH_DIR,
+    batch_plan,
+    cached_batch,
+    compute_batch,
+    csv_text,
+    summary_columns,
+    write_text,
+)
 from solver.material import Material
 from solver.options import FemCase, Loading, SolverOptions
 
@@ -164,12 +172,14 @@ class ErrorPlan:
 
 
 def case_variants(case: ErrorCase, plan: ErrorPlan) -> list[Variant]:
-    """The variants run for ``case``: the sizes, the spectral run (rough surfaces), the knobs
-    (those of :data:`SLIDING_ONLY` only for sliding cases)."""
+    """The variants run for ``case``: the sizes, the spectral runs (rough surfaces: each size
+    but the finest on the next one), the knobs (those of :data:`SLIDING_ONLY` only for sliding
+    cases)."""
     sizes = sorted(plan.sizes)
     variants = [Variant("n", n, n) for n in sizes]
-    if plan.spectral and len(sizes) > 1 and not case.analytic:
-        variants.append(Variant("spectral", sizes[-2], sizes[-1]))
+    if plan.spectral and not case.analytic:
+        variants += [Variant("spectral", coarse, fine)
+                     for coarse, fine in zip(sizes, sizes[1:], strict=False)]
     for table, option, values in plan.variants:
         if case.analytic and option in SLIDING_ONLY:
             continue
@@ -285,12 +295,12 @@ def error_columns(row: dict, reference: dict) -> dict:
 
 def finest_converged(table: dict, label: str, sizes: Sequence[int]) -> tuple[dict, str]:
     """The reference of a rough case: its finest run of the sweep that converged, and its name
-    (``N=128``, or ``N=64 (N=128 failed)``); ({}, "none converged") if none did."""
+    (``N=128``, or ``N=64 (no converged N=128)``); ({}, "none converged") if none did."""
     finest = max(sizes)
     for n in sorted(sizes, reverse=True):
         values = table.get((label, Variant("n", n, n)), {})
         if values.get("converged"):
-            return values, f"N={n}" + (f" (N={finest} failed)" if n != finest else "")
+            return values, f"N={n}" + (f" (no converged N={finest})" if n != finest else "")
     return {}, "none converged"
 
 
@@ -490,6 +500,9 @@ def parse_args(argv):
     parser.add_argument("--runs", metavar="DIR", help="run cache directory")
     parser.add_argument("--plan", action="store_true",
                         help="print the runs per N (cached, to compute) and exit")
+    parser.add_argument("--report", action="store_true",
+                        help="write the tables and plot from the runs already in the cache, "
+                        "computing nothing (the others are marked as not computed)")
     return parser.parse_args(argv)
 
 
@@ -503,12 +516,18 @@ def plan_from_args(args) -> tuple[ErrorPlan, Path]:
 
 
 def run_benchmark(plan: ErrorPlan, output: Path, comm, runs_directory=None,
-                  progress=None) -> list[dict] | None:
-    """Compute (every rank) and write (rank 0) the benchmark; the rows on rank 0, else None."""
+                  progress=None, compute: bool = True) -> list[dict] | None:
+    """Compute (every rank) and write (rank 0) the benchmark; the rows on rank 0, else None.
+    With ``compute`` False nothing is computed: the tables are written from the runs in the
+    cache, the others reported as not computed."""
     from solver.post import read_run
 
     runs = benchmark_runs(plan)
-    results = compute_batch([fem for _, _, fem in runs], comm, runs_directory, progress)
+    cases = [fem for _, _, fem in runs]
+    if not compute:
+        results = cached_batch(cases, runs_directory) if comm.rank == 0 else None
+    else:
+        results = compute_batch(cases, comm, runs_directory, progress)
     if comm.rank != 0:
         return None
     measurements = [measured(read_run(result.path) if result.path else None, case)
@@ -538,7 +557,7 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     from mpi4py import MPI
 
-    run_benchmark(plan, output, MPI.COMM_WORLD, args.runs)
+    run_benchmark(plan, output, MPI.COMM_WORLD, args.runs, compute=not args.report)
     return 0
 
 

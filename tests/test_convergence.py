@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from geometry.generate import builtin_surface
-from solver.batch import BatchResult, batch_groups, csv_text
+from solver.batch import NOT_IN_CACHE, BatchResult, batch_groups, csv_text
 from solver.command import surface_on_fem_grid
 from solver.convergence import (
     CASES,
@@ -69,13 +69,13 @@ def test_sinusoid_surface_has_the_declared_slope_and_closed_form_p_star():
 
 # --- the plan --------------------------------------------------------------------------------
 
-def test_variants_are_the_sizes_the_spectral_run_and_each_knob_alone():
+def test_variants_are_the_sizes_the_spectral_runs_and_each_knob_alone():
     plan = ErrorPlan(sizes=(16, 32, 64), base_n=16,
                      variants=(("mesh", "blend_layers", (2, 8)),
                                ("solver", "first_slide", (0.01,))))
     rough = case_variants(G5_LOW, plan)
-    assert [v.label for v in rough] == ["N=16", "N=32", "N=64", "32^2 on 64", "blend_layers=2",
-                                        "blend_layers=8", "first_slide=0.01"]
+    assert [v.label for v in rough] == ["N=16", "N=32", "N=64", "16^2 on 32", "32^2 on 64",
+                                        "blend_layers=2", "blend_layers=8", "first_slide=0.01"]
     assert all(v.n == 16 for v in rough if "." in v.knob)
     analytic = case_variants(SINE, plan)  # no spectral run, no sliding-only knob
     assert [v.label for v in analytic] == ["N=16", "N=32", "N=64", "blend_layers=2",
@@ -130,7 +130,8 @@ def synthetic_rows(mu):
     return error_rows(runs, measurements, plan)
 
 
-MU = {"N=8": 0.55, "N=16": 0.51, "N=32": 0.50, "16^2 on 32": 0.505, "penalty=100": 0.56}
+MU = {"N=8": 0.55, "N=16": 0.51, "N=32": 0.50, "8^2 on 16": 0.54, "16^2 on 32": 0.505,
+      "penalty=100": 0.56}
 
 
 def test_rows_compare_with_the_finest_run_and_with_their_comparator():
@@ -155,7 +156,7 @@ def test_rows_compare_with_the_finest_run_and_with_their_comparator():
 def test_reference_falls_back_to_the_finest_converged_run():
     table = {("a", Variant("n", n, n)): {"converged": n < 32, "mu_s": 0.5} for n in (8, 16, 32)}
     values, name = finest_converged(table, "a", (8, 16, 32))
-    assert values is table["a", Variant("n", 16, 16)] and name == "N=16 (N=32 failed)"
+    assert values is table["a", Variant("n", 16, 16)] and name == "N=16 (no converged N=32)"
     table["a", Variant("n", 32, 32)]["converged"] = True
     assert finest_converged(table, "a", (8, 16, 32))[1] == "N=32"
     assert finest_converged({}, "a", (8, 16, 32)) == ({}, "none converged")
@@ -192,9 +193,10 @@ def test_check_lines_print_every_doubling_and_the_verdict():
 
 def test_mesh_lines_compare_the_spectral_run_with_its_coarse_surface():
     lines = mesh_lines(synthetic_rows(MU))
-    assert len(lines) == 2  # the heading and the one sliding case (not the sinusoid)
-    assert lines[1].split()[:2] == ["16^2", "on"] and G5_LOW.label in lines[1]
-    assert f"{100 * (0.505 / 0.51 - 1):+.2f}%" in lines[1]
+    assert len(lines) == 3  # the heading and the sliding case's two runs (not the sinusoid)
+    assert lines[1].split()[:3] == ["8^2", "on", "16"] and G5_LOW.label in lines[1]
+    assert f"{100 * (0.54 / 0.55 - 1):+.2f}%" in lines[1]
+    assert f"{100 * (0.505 / 0.51 - 1):+.2f}%" in lines[2]
     assert mesh_lines([]) == []
 
 
@@ -283,3 +285,17 @@ def test_tiny_benchmark_end_to_end(tmp_path, capsys):
     assert sorted(Path(tmp_path / "runs").glob("*.h5")) == entries
     assert not any("converged," in line for line in again)  # no run finished: none computed
     assert [row["wall_s"] for row in second] == [row["wall_s"] for row in rows]
+
+    # --report: from the cache only; a missing run is reported, not computed
+    from solver.cache import entry_path, physics_version
+
+    runs = dict(((case.label, variant.label), fem) for case, variant, fem in
+                benchmark_runs(plan))
+    entry_path(tmp_path / "runs", runs[G5_LOW.label, "N=8"], physics_version()).unlink()
+    reported = run_benchmark(plan, tmp_path / "out", MPI.COMM_SELF, tmp_path / "runs",
+                             compute=False)
+    assert len(list(Path(tmp_path / "runs").glob("*.h5"))) == 6  # nothing computed
+    by_label = {(row["case"], row["label"]): row for row in reported}
+    missing = by_label[G5_LOW.label, "N=8"]
+    assert missing["message"] == NOT_IN_CACHE and not missing["converged"]
+    assert by_label[G5_LOW.label, "N=4"]["reference"] == "N=4 (no converged N=8)"
