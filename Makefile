@@ -92,8 +92,8 @@ bench-fem: setup
 
 # Run time against error (solver/convergence.py): G5 at F* = 0.155 and 0.93, 2L at 0.5 and the
 # elastic sinusoid, at N = 16, 32, 64, 128, each surface but the finest on a 2x finer mesh and
-# each knob alone at N = $(N),
-# through the run cache on $(NP) ranks -> results/bench/error.{csv,png}, copied to docs/bench/.
+# each knob alone at N = $(N), through the run cache on $(NP) ranks ->
+# results/bench/error.{csv,png}, copied to docs/bench/.
 # `make bench-error ERROR_SIZES="16 32 64"`: a shorter sweep.
 # `make bench-error-quick`: the same at N = 8 and 16, to results/bench/quick/ (not copied).
 ERROR_SIZES ?= 16 32 64 128

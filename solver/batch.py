@@ -111,6 +111,10 @@ def compute_batch(cases: Sequence[FemCase], comm, directory=None,
     return results
 
 
+#: The message of a run that :func:`cached_batch` did not find.
+NOT_IN_CACHE = "not computed (not in the run cache)"
+
+
 def cached_batch(cases: Sequence[FemCase], directory=None) -> list[BatchResult]:
     """The results file of every case that is in the run cache, computing nothing; a missing
     run is a :class:`BatchResult` without a file that says so."""
@@ -118,10 +122,6 @@ def cached_batch(cases: Sequence[FemCase], directory=None) -> list[BatchResult]:
     physics = physics_version()
     paths = [finished_entry(directory, case, physics) for case in cases]
     return [BatchResult(path) if path else BatchResult(None, NOT_IN_CACHE) for path in paths]
-
-
-#: The message of a run that ``cached_batch`` did not find.
-NOT_IN_CACHE = "not computed (not in the run cache)"
 
 
 def batch_plan(cases: Sequence[FemCase], directory=None) -> list[str]:

@@ -357,7 +357,9 @@ def release_petsc_objects(root) -> int:
     every finished run left its matrices, vectors and solver behind (a G5 run at N = 8 ~6 MB,
     an elastic sinusoid at N = 32 0.1-0.3 GB on 2 ranks), so a batch's memory grew run by run.
     Called (collectively, on every rank) once a group's entries are written; the runs' objects
-    are unusable afterwards.
+    are unusable afterwards. It walks the run's objects from here rather than giving each
+    owner a ``destroy`` method because those owners are physics modules: editing them would
+    change :func:`physics_version` and discard every cached run, though no result changes.
     """
     from petsc4py import PETSc
 
