@@ -157,15 +157,16 @@ def summary_columns(run) -> dict:
     -------
     dict
         :data:`SUMMARY_COLUMNS` from the run's summary (None where absent), ``message``,
-        ``wall_s`` (total wall time [s]), ``peak_memory_gb`` (summed over ranks [GB]) and
+        ``note`` (:attr:`solver.post.RunFile.note`), ``wall_s`` (total wall time [s]),
+        ``peak_memory_gb`` (summed over ranks [GB]) and
         ``ranks``.
     """
     if run is None:
         return {**dict.fromkeys(SUMMARY_COLUMNS), "converged": False, "message": "",
-                "wall_s": None, "peak_memory_gb": None, "ranks": None}
+                "note": "", "wall_s": None, "peak_memory_gb": None, "ranks": None}
     columns = {key: run.summary.get(key) for key in SUMMARY_COLUMNS}
     columns["converged"] = run.converged
-    columns.update(message=run.message, wall_s=run.timings.get("total_s"),
+    columns.update(message=run.message, note=run.note, wall_s=run.timings.get("total_s"),
                    peak_memory_gb=run.sizes.get("peak_memory_gb"), ranks=run.sizes.get("ranks"))
     return columns
 

@@ -11,6 +11,9 @@ An entry is finished when its file exists under its final name. Entries are writ
 :func:`solver.command.save_run` (temporary file, then rename), each as soon as its run ends, so
 a killed batch loses at most the run in progress and a half-written file is never read as a
 result. Unconverged runs are entries too (a rerun would repeat them); delete the file to retry.
+A run that fails on a normal path shared with smaller loads is run once more on its own path
+(:func:`_compute_alone`); if that converges, its entry is the standalone run, with a ``note``
+attribute that says so (``roughfriction post``, the runs table and the stress matrix show it).
 
 A normal-only case is also answered by the finished sliding run of the same case: its preload is
 the same computation (read it with :func:`solver.post.preload_state`).
@@ -210,6 +213,12 @@ class RunReporter:
         """The next run starts."""
         self.label, self.steps, self.iterations = run_label(case), 0, 0
 
+    def again(self, case: FemCase, why: str) -> None:
+        """A finished run starts over (it counts once in the progress bar)."""
+        self.done -= 1
+        self.begin(case)
+        self.write(f"{self.prefix}: {why}")
+
     @property
     def prefix(self) -> str:
         return f"[{self.done + 1}/{self.total}] {self.label}"
@@ -265,6 +274,8 @@ def _table_rows(cases, paths, computed) -> list[dict]:
     for case, path in zip(cases, paths, strict=True):
         entry = read_run(path)
         source = "computed" if path in computed else "cache"
+        if entry.note:
+            source += " (alone: shared path failed)"
         if entry.inputs["loading"]["normal_only"] != case.loading.normal_only:
             source += " (its sliding run)"
         rows.append({"surface": case.surface.name, "n": case.surface.n,
@@ -333,7 +344,8 @@ def cached_results(cases: Sequence[FemCase], comm=None, progress=None,
 
 def _compute_group(group: RunGroup, comm, reporter: RunReporter) -> None:
     """Run one group, writing each entry as soon as its run ends; then free its PETSc objects
-    (:func:`release_petsc_objects`)."""
+    (:func:`release_petsc_objects`). A run past the first that failed on the shared normal path
+    is run again alone (:func:`_compute_alone`)."""
     from solver.command import save_run
     from solver.run import run_loads
 
@@ -344,7 +356,37 @@ def _compute_group(group: RunGroup, comm, reporter: RunReporter) -> None:
             reporter.begin(group.cases[index + 1])
 
     reporter.begin(group.cases[0])
-    release_petsc_objects(run_loads(group.cases[0], group.loads, comm, reporter.step,
+    runs = run_loads(group.cases[0], group.loads, comm, reporter.step, finished=finished)
+    failed = [(index, run.result.message) for index, run in enumerate(runs)
+              if index > 0 and not run.result.converged]
+    release_petsc_objects(runs)
+    for index, message in failed:
+        _compute_alone(group.cases[index], group.paths[index], message, comm, reporter)
+
+
+def _compute_alone(case: FemCase, path: Path, message: str, comm,
+                   reporter: RunReporter) -> None:
+    """Run ``case`` on its own normal path after it failed on a shared one (``message``: why),
+    and keep that run, noted as such, if it converges (else the shared run's entry stays).
+
+    A shared path reaches a load through the preload steps of the smaller loads, a standalone
+    path through its own: the states differ at step level (plastic path dependence), so a
+    stick/slip cycle that stalls one may not arise on the other (G4 at F* = 0.62, N = 32:
+    its sliding stalled at u_x = 1.01e-6 m with one node cycling between stick and slip on the
+    shared path; alone it converges, mu_s 0.6711).
+    """
+    from solver.command import save_run
+    from solver.run import run_loads
+
+    note = f"computed alone: on the shared normal path it failed ({message})"
+
+    def finished(index, fem_run):
+        if fem_run.result.converged:
+            save_run(path, case, fem_run, comm, note=note)
+        reporter.finished(fem_run.result.summary())
+
+    reporter.again(case, "shared normal path failed; running it alone")
+    release_petsc_objects(run_loads(case, [case.loading.load_star], comm, reporter.step,
                                     finished=finished))
 
 

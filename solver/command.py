@@ -19,6 +19,7 @@ mu_s is never reported from an unconverged state.
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 import tomllib
 from dataclasses import fields
@@ -115,12 +116,12 @@ def default_output(case: FemCase) -> Path:
     return Path("results/fem") / f"{name}_F{case.loading.load_star:g}_N{case.surface.n}{suffix}.h5"
 
 
-def save_run(path: Path, case: FemCase, fem_run, comm) -> None:
+def save_run(path: Path, case: FemCase, fem_run, comm, note: str = "") -> None:
     """Write a run's results file (rank 0 writes, atomically; every rank waits for it).
 
     The file holds the case's inputs, the records and summary, and the surface maps of the
     run plus ``surface_heights``, the N x N heights of the FEM grid [m] (for the interference
-    and for drawing maps over the topography).
+    and for drawing maps over the topography), and the root attribute ``note`` if given.
 
     Parameters
     ----------
@@ -132,12 +133,24 @@ def save_run(path: Path, case: FemCase, fem_run, comm) -> None:
         Its outcome.
     comm : mpi4py.MPI.Comm
         The communicator the run used; call on every rank.
+    note : str
+        How the run was obtained, if not the usual way (e.g. on a standalone path after its
+        shared normal path failed, see :mod:`solver.cache`).
     """
     from solver.results import write_hdf5
 
     if comm.rank == 0:
+        path = Path(path)
         maps = {"surface_heights": case.surface.heights, **fem_run.maps}
-        write_hdf5(Path(path), case.inputs(), fem_run.result, maps)
+        # with a note: written in full under a staging name, then renamed (still atomic)
+        staging = path.with_name(f".{path.name}.noted") if note else path
+        write_hdf5(staging, case.inputs(), fem_run.result, maps)
+        if note:
+            import h5py
+
+            with h5py.File(staging, "a") as h5:
+                h5.attrs["note"] = note
+            os.replace(staging, path)
     comm.barrier()
 
 

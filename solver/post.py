@@ -53,6 +53,9 @@ class RunFile:
         Wall times of the phases [s].
     sizes : dict
         Cells, reduced dofs, ranks, linear solver, peak memory [GB].
+    note : str
+        How the run was obtained if not the usual way ("" otherwise), e.g. on a standalone
+        normal path after its shared one failed (:mod:`solver.cache`).
     """
 
     path: Path
@@ -64,6 +67,7 @@ class RunFile:
     maps: dict
     timings: dict
     sizes: dict
+    note: str = ""
 
     @property
     def surface_name(self) -> str:
@@ -139,6 +143,7 @@ def read_run(path) -> RunFile:
                 maps={name: h5["maps"][name][()] for name in h5.get("maps", {})},
                 timings={k: _plain(v) for k, v in h5["timings"].attrs.items()},
                 sizes={k: _plain(v) for k, v in h5["sizes"].attrs.items()},
+                note=_plain(h5.attrs.get("note", "")),
             )
     except OSError as error:
         raise InputError(f"cannot read {path} as HDF5 (truncated or not HDF5): {error}") from None
@@ -330,6 +335,7 @@ def run_report(run: RunFile) -> dict:
         "normal_only": bool(run.inputs["loading"]["normal_only"]),
         **run.summary,
         "message": run.message,
+        "note": run.note,
         "omega_0_m": interference(run),
         "per_step": {key: column.tolist() for key, column in step_table(run).items()},
         "junction": junction_growth(run),

@@ -14,6 +14,8 @@ Each run is classified (:func:`classify`):
 
 * converged directly: no step was cut;
 * converged after step cutting: ``cut_steps`` > 0 (failed attempts before accepted steps);
+* converged alone: failed on the normal path shared with the smaller loads of its surface and
+  converged when run again on its own path (the run cache's retry; the entry's ``note``);
 * failed loudly: not converged, with a message saying where and why (also a run refused before
   solving, e.g. an inverted mesh);
 * SILENT FAILURE: anything else: a mu_s from a run that is not converged, whose last step is
@@ -70,9 +72,9 @@ OPTIONS = {"penalty": "penalty", "step": "first_slide"}
 DATA_VARIABLE = "ROUGHFRICTION_SURFACE_DATA"
 
 #: Outcomes, in table order.
-DIRECT, CUT, FAILED, SILENT = ("converged directly", "converged after step cutting",
-                               "failed loudly", "SILENT FAILURE")
-OUTCOMES = (DIRECT, CUT, FAILED, SILENT)
+DIRECT, CUT, ALONE, FAILED, SILENT = ("converged directly", "converged after step cutting",
+                                      "converged alone", "failed loudly", "SILENT FAILURE")
+OUTCOMES = (DIRECT, CUT, ALONE, FAILED, SILENT)
 #: Largest relative deviation of F_n at inception from its target [-] (the Newton residual
 #: tolerance is 1e-6 F_n by default).
 FORCE_TOLERANCE = 1e-4
@@ -221,6 +223,8 @@ def classify(facts: dict) -> tuple[str, list[str]]:
         return SILENT, problems
     if not facts["converged"]:
         return FAILED, []
+    if facts.get("note"):
+        return ALONE, []
     return (CUT if facts.get("cut_steps") else DIRECT), []
 
 
@@ -250,7 +254,7 @@ def add_changes(rows: Sequence[dict]) -> None:
 # --- tables ----------------------------------------------------------------------------------
 
 COLUMNS = ("kind", "surface", "n", "load_star", "option", "factor", "outcome", "problems",
-           "converged", "message", "mu_s", "mu_s_change", "area_ratio_normal",
+           "converged", "message", "note", "mu_s", "mu_s_change", "area_ratio_normal",
            "area_ratio_sliding", "junction_growth", "contact_nodes", "contact_patches",
            "nodes_per_patch", "reliable", "steps", "cut_steps", "newton_iterations", "wall_s",
            "peak_memory_gb", "ranks")
@@ -270,6 +274,8 @@ def cell_text(row: dict) -> str:
     if row["outcome"] == CUT:
         cuts = row["cut_steps"]
         text += f" ({cuts} cut{'s' if cuts != 1 else ''})"
+    if row["outcome"] == ALONE:
+        text += " (alone)"
     if row.get("reliable") is False:
         text += f" {UNRELIABLE_MARK}"
     return text
@@ -341,7 +347,9 @@ def stress_markdown(rows: Sequence[dict], n: int, loads: Sequence[float]) -> str
     counts = outcome_counts(rows)
     ranks = sorted({row["ranks"] for row in rows if row.get("ranks")})
     lines = [f"Stress runs on N = {n} grids ({', '.join(map(str, ranks)) or '?'} rank(s)). "
-             "Cells: mu_s; (k cuts): converged after k step cuts; FAILED: failed loudly "
+             "Cells: mu_s; (k cuts): converged after k step cuts; (alone): failed on the "
+             "normal path shared with the smaller loads, converged on its own; FAILED: failed "
+             "loudly "
              f"(reason below); {UNRELIABLE_MARK}: unreliable, fewer than "
              f"{RELIABLE_NODES_PER_PATCH} contact nodes per patch.", ""]
     lines += matrix_table(rows, loads) + [""]

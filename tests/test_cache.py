@@ -117,6 +117,7 @@ class FakeFem:
     def __init__(self, directory: Path, fail_at=None):
         self.directory, self.fail_at = directory, fail_at
         self.calls, self.entries_at_start = [], []
+        self.stalls, self.stalls_alone = set(), False  # (name, load): the run does not converge
 
     def run_loads(self, case, loads, comm, progress=None, xdmf_directory=None, finished=None):
         self.calls.append((case.surface.name, case.loading.normal_only, list(loads)))
@@ -128,6 +129,10 @@ class FakeFem:
             progress("normal     Fn=1.0e+00 N Ft=5.0e-01 N ux=0 m newton=3 t=0.1s")
             fem_run = synthetic_run(replace(case, loading=Loading(load,
                                                                   case.loading.normal_only)))
+            if (case.surface.name, load) in self.stalls and (len(loads) > 1
+                                                             or self.stalls_alone):
+                fem_run.result = replace(fem_run.result, converged=False,
+                                         message=f"stalled at F* = {load}")
             finished(index, fem_run)
             runs.append(fem_run)
         return runs
@@ -214,6 +219,42 @@ def test_a_failure_keeps_the_runs_finished_before_it(fake_fem, tmp_path):
     fake_fem.fail_at = None
     fill(cases, tmp_path)
     assert fake_fem.calls[-1] == ("G-test", False, [0.3, 0.5])  # only what was missing
+
+
+def test_a_run_that_fails_on_the_shared_path_is_run_again_alone(fake_fem, tmp_path):
+    from solver.post import read_run
+
+    cases = [rough_case(0.155), rough_case(0.3), rough_case(0.5)]
+    fake_fem.stalls = {("G-test", 0.3)}
+    lines = []
+    paths = fill(cases, tmp_path, lines)
+    assert fake_fem.calls == [("G-test", False, [0.155, 0.3, 0.5]), ("G-test", False, [0.3])]
+    retried = read_run(paths[1])
+    assert retried.converged and retried.load_star == 0.3
+    assert retried.note.startswith("computed alone") and "stalled at F* = 0.3" in retried.note
+    assert all(read_run(path).note == "" for path in (paths[0], paths[2]))
+    assert any("running it alone" in line for line in lines)
+    assert sum("runs," in line for line in lines) == 4 and "3/3 runs" in lines[-5]
+    assert lines[-2].rstrip().endswith("computed (alone: shared path failed)")
+    # served from the cache afterwards, note and all
+    assert fill(cases, tmp_path) == paths and len(fake_fem.calls) == 2
+
+
+def test_a_run_that_fails_alone_too_keeps_its_shared_entry(fake_fem, tmp_path):
+    from solver.post import read_run
+
+    fake_fem.stalls, fake_fem.stalls_alone = {("G-test", 0.3)}, True
+    paths = fill([rough_case(0.155), rough_case(0.3)], tmp_path)
+    assert len(fake_fem.calls) == 2
+    failed = read_run(paths[1])
+    assert not failed.converged and failed.note == ""
+    assert failed.message == "stalled at F* = 0.3"
+
+
+def test_the_first_run_of_a_group_is_not_run_again(fake_fem, tmp_path):
+    fake_fem.stalls, fake_fem.stalls_alone = {("G-test", 0.155)}, True
+    fill([rough_case(0.155), rough_case(0.3)], tmp_path)
+    assert len(fake_fem.calls) == 1  # its path is already its own
 
 
 def test_the_runs_of_a_group_are_released_once_written(fake_fem, tmp_path, monkeypatch):

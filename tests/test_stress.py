@@ -13,6 +13,7 @@ from geometry.surface import Surface
 from solver.options import FemCase, Loading, SolverOptions
 from solver.results import FemResult, StepRecord
 from solver.stress import (
+    ALONE,
     CUT,
     DIRECT,
     FAILED,
@@ -148,6 +149,10 @@ GOOD = {"converged": True, "message": "", "mu_s": 0.4, "normal_only": False, "cu
 @pytest.mark.parametrize("changes, outcome, problem", [
     ({}, DIRECT, None),
     ({"cut_steps": 3}, CUT, None),
+    ({"cut_steps": 3, "note": "computed alone: on the shared normal path it failed (...)"},
+     ALONE, None),
+    ({"converged": False, "mu_s": None, "message": "stalled", "note": "computed alone"}, FAILED,
+     None),
     ({"normal_only": True, "mu_s": None, "inception": None}, DIRECT, None),
     ({"converged": False, "mu_s": None, "message": "tangential step did not converge"}, FAILED,
      None),
@@ -249,6 +254,7 @@ def test_cells_show_mu_s_cuts_failures_and_unreliability():
     assert cell_text(rows[1]) == "0.500 (2 cuts)"
     assert cell_text({**rows[1], "cut_steps": 1}) == "0.500 (1 cut)"
     assert cell_text(rows[2]) == "FAILED"
+    assert cell_text({**rows[1], "outcome": ALONE}) == "0.500 (alone)"
     assert cell_text(rows[4]) == "0.410 (+2.5 %)"
     assert cell_text({**rows[3], "outcome": SILENT}) == "**SILENT**"
 
@@ -265,10 +271,10 @@ def test_matrix_table_has_a_row_per_surface_and_a_column_per_load():
 def test_markdown_counts_outcomes_lists_failures_and_the_reliable_region():
     rows = synthetic_table()
     counts = outcome_counts(rows)
-    assert [counts[o] for o in OUTCOMES] == [4, 1, 1, 0]
+    assert [counts[o] for o in OUTCOMES] == [4, 1, 0, 1, 0]
     text = stress_markdown(rows, 32, (0.01, 0.155))
     assert "Outcomes of all 6 runs: 4 converged directly, 1 converged after step cutting, " \
-           "1 failed loudly, 0 SILENT FAILURE." in text
+           "0 converged alone, 1 failed loudly, 0 SILENT FAILURE." in text
     assert "- G5 F*=0.01: failed loudly: preload did not converge beyond 0.5" in text
     assert "| defaults | x1 | FAILED | 0.400 |" in text
     assert "| penalty | x100 | 0.300 | 0.410 (+2.5 %) |" in text
