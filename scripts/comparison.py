@@ -10,7 +10,7 @@ from geometry.statistics import surface_statistics
 from multiscale.scales import scale_decomposition
 from multiscale.theory import evaluate_theory
 from scripts.cases import FEM_LOAD_SWEEP, GAUSSIAN_SURFACES, LOAD_SWEEP, fem_case
-from scripts.fem_views import fem_label, fem_mu
+from scripts.fem_views import fem_label, fem_mu, fem_mu_at_least
 from scripts.figures import new_axes
 from solver.material import Material
 
@@ -28,6 +28,18 @@ def draw_statistical(ax, x, mu, valid, label: str, style: dict) -> None:
                 **style)
 
 
+def draw_fem(ax, x, runs) -> tuple[np.ndarray, np.ndarray]:
+    """The FEM's mu_s at ``x`` (filled circles) and, for runs that failed before sliding
+    inception, the F_t/F_n they reached (hollow triangles: mu_s is at least that); return
+    both [-] (NaN where absent)."""
+    mu_fem = np.array([fem_mu(run) for run in runs])
+    at_least = np.array([fem_mu_at_least(run) for run in runs])
+    ax.plot(x, mu_fem, "ko", label=fem_label(runs))
+    if np.isfinite(at_least).any():
+        ax.plot(x, at_least, "k^", mfc="none", label="FEM failed before inception: $\\mu_s \\geq$")
+    return mu_fem, at_least
+
+
 def surface_title(name: str) -> str:
     return f"{name} (stand-in)" if name in STAND_INS else name
 
@@ -42,18 +54,19 @@ def psi_sweep(load: float, runs):
     material = Material()
     theory = [evaluate_theory(builtin_surface(name), load, material) for name in GAUSSIAN_SURFACES]
     psi = np.array([result.psi for result in theory])
+    fig, ax = new_axes()
+    mu_fem, at_least = draw_fem(ax, psi, runs)
     columns = {
         "surface": np.array(GAUSSIAN_SURFACES),
         "psi": psi,
-        "mu_fem": np.array([fem_mu(run) for run in runs]),
+        "mu_fem": mu_fem,
+        "mu_fem_at_least": at_least,
         "mu_multiscale": np.array([result.mu_s for result in theory]),
         "mu_cke": np.array([result.mu_cke for result in theory]),
         "cke_valid": np.array([result.cke_valid for result in theory]),
         "mu_let": np.array([result.mu_let for result in theory]),
         "let_valid": np.array([result.let_valid for result in theory]),
     }
-    fig, ax = new_axes()
-    ax.plot(psi, columns["mu_fem"], "ko", label=fem_label(runs))
     ax.plot(psi, columns["mu_multiscale"], "s-", color="C0", ms=4, label="multi-scale")
     draw_statistical(ax, psi, columns["mu_cke"], columns["cke_valid"], "CKE (Eq. 8)",
                      {"color": "C1", "marker": "^", "ms": 4})
@@ -83,9 +96,8 @@ def load_sweep(name: str, runs):
     mu_let = np.array([result.mu_let for result in theory])
     let_valid = np.array([result.let_valid for result in theory])
     fem_loads = np.array([run.load_star for run in runs])
-    mu_fem = np.array([fem_mu(run) for run in runs])
     fig, ax = new_axes()
-    ax.plot(fem_loads, mu_fem, "ko", label=fem_label(runs))
+    mu_fem, at_least = draw_fem(ax, fem_loads, runs)
     ax.plot(loads, [result.mu_s for result in theory], "s-", color="C0", ms=4,
             label="multi-scale")
     draw_statistical(ax, loads, mu_let, let_valid, "LET (Eq. 20)",
@@ -96,7 +108,9 @@ def load_sweep(name: str, runs):
     ax.set_title(f"Static friction vs load, {surface_title(name)}, ψ = {psi:.3g}")
     ax.legend(fontsize=7)
     notes = ["" if valid else "outside its range" for valid in let_valid]
-    fem_notes = ["" if np.isfinite(mu) else "no sliding inception" for mu in mu_fem]
+    fem_notes = ["" if np.isfinite(mu) else
+                 f"failed before sliding inception: mu_s >= {bound:.4g}" if np.isfinite(bound)
+                 else "no sliding inception" for mu, bound in zip(mu_fem, at_least, strict=True)]
     columns = {
         "model": np.array(["fem"] * len(runs) + ["multiscale"] * len(loads) + ["let"] * len(loads)),
         "load_star": np.concatenate([fem_loads, loads, loads]),

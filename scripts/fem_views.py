@@ -30,6 +30,16 @@ def fem_mu(run) -> float:
     return float("nan") if mu_s is None else float(mu_s)
 
 
+def fem_mu_at_least(run) -> float:
+    """The largest F_t/F_n [-] a sliding run reached before it failed short of sliding
+    inception (its mu_s is at least this); NaN for a run with a mu_s or without a sliding
+    step."""
+    if run.summary.get("mu_s") is not None or run.inputs["loading"]["normal_only"]:
+        return float("nan")
+    ratios = tangential_curve(run)["Ft_over_Fn"]
+    return float(np.max(ratios)) if len(ratios) > 1 else float("nan")
+
+
 def fem_label(runs) -> str:
     """``FEM, N = 32`` (the runs' grid)."""
     return f"FEM, N = {runs[0].n}"
@@ -82,7 +92,9 @@ def tangential_curves(runs, normalised: bool):
         omega_0 = interference(run) or float("nan")
         psi = builtin_psi(run.surface_name)
         x = curve["ux_m"] / omega_0 if normalised else curve["ux_m"] / UM
-        ax.plot(x, curve["Ft_over_Fn"], ".-", ms=3, label=f"{run.surface_name}, ψ = {psi:.3g}")
+        failed = "" if run.converged else " (failed)"
+        ax.plot(x, curve["Ft_over_Fn"], ".-", ms=3,
+                label=f"{run.surface_name}, ψ = {psi:.3g}{failed}")
         count = len(curve["ux_m"])
         columns["surface"] += [run.surface_name] * count
         columns["psi"] += [psi] * count

@@ -106,24 +106,36 @@ def test_fem_figures_share_runs():
 def fake_runs(cases, mu_s):
     """Stand-ins for results files, enough for the mu_s figures."""
     return [types.SimpleNamespace(n=case.surface.n, load_star=case.loading.load_star,
-                                  surface_name=case.surface.name, summary={"mu_s": mu})
+                                  surface_name=case.surface.name, summary={"mu_s": mu},
+                                  inputs=case.inputs(), converged=mu is not None)
             for case, mu in zip(cases, mu_s, strict=True)]
 
 
-def test_mu_vs_psi_marks_statistical_models_outside_their_range():
-    from scripts import fig22, fig23
+#: A FEM label for runs that failed before sliding inception.
+AT_LEAST = "FEM failed before inception: $\\mu_s \\geq$"
 
-    mu_fem = [0.9, None, *[0.5] * 7]  # G2 without sliding inception
+
+def test_mu_vs_psi_marks_statistical_models_outside_their_range(monkeypatch):
+    from scripts import fem_views, fig22, fig23
+
+    # G2 failed before sliding inception, at F_t/F_n = 2.3 and rising
+    monkeypatch.setattr(fem_views, "tangential_curve",
+                        lambda run: {"Ft_over_Fn": np.array([0.0, 1.2, 2.3])})
+    mu_fem = [0.9, None, *[0.5] * 7]
     fig, columns = fig22.make(fake_runs(fig22.fem_cases(8), mu_fem))
     assert np.isnan(columns["mu_fem"][1]) and columns["mu_fem"][0] == 0.9
+    assert columns["mu_fem_at_least"][1] == 2.3
+    assert np.isnan(np.delete(columns["mu_fem_at_least"], 1)).all()
     assert list(columns["cke_valid"]) == [psi <= 8 for psi in columns["psi"]]
     assert all(columns["let_valid"])  # psi <= 32 and F* <= 0.3
     labels = fig.axes[0].get_legend_handles_labels()[1]
     assert "CKE (Eq. 8), outside its range" in labels and "LET (Eq. 20)" in labels
+    assert AT_LEAST in labels
     fig, columns = fig23.make(fake_runs(fig23.fem_cases(8), [0.9] * 9))
     assert not any(columns["cke_valid"]) and not any(columns["let_valid"])  # F* = 0.62 > 0.3
     labels = fig.axes[0].get_legend_handles_labels()[1]
     assert "LET (Eq. 20)" not in labels and "LET (Eq. 20), outside its range" in labels
+    assert AT_LEAST not in labels  # no failed run, no such marker
 
 
 def test_mu_vs_load_columns():
@@ -135,6 +147,19 @@ def test_mu_vs_load_columns():
     assert list(columns["load_star"][fem]) == list(FEM_LOAD_SWEEP)
     let = columns["model"] == "let"
     assert all((columns["note"][let] == "") == (columns["load_star"][let] <= 0.3))
+
+
+def test_mu_vs_load_notes_a_failed_run_with_its_lower_bound(monkeypatch):
+    from scripts import fem_views, fig28
+
+    monkeypatch.setattr(fem_views, "tangential_curve",
+                        lambda run: {"Ft_over_Fn": np.array([0.0, 0.61])})
+    cases = fig28.fem_cases(8)
+    fig, columns = fig28.make(fake_runs(cases, [None] + [0.7] * (len(cases) - 1)))
+    fem = columns["model"] == "fem"
+    assert columns["note"][fem][0] == "failed before sliding inception: mu_s >= 0.61"
+    assert not any(columns["note"][fem][1:])
+    assert AT_LEAST in fig.axes[0].get_legend_handles_labels()[1]
 
 
 # --- one FEM figure end to end ----------------------------------------------------------------
