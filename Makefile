@@ -87,10 +87,10 @@ bench-multiscale: setup
 # rank count: `make bench-fem NP=1 BENCH_N="32 64"` adds serial rows)
 BENCH_N ?= 32 64 128
 bench-fem: setup
-	@$(PY) -m solver.benchmark --n $(BENCH_N) --ranks $(NP)
+	@$(VENV)/bin/roughfriction bench fem --n $(BENCH_N) --ranks $(NP)
 	@mkdir -p docs/bench && cp results/bench/fem.csv docs/bench/
 
-# Run time against error (solver/convergence.py): G5 at F* = 0.155 and 0.93, 2L at 0.5 and the
+# Run time against error (studies/convergence.py): G5 at F* = 0.155 and 0.93, 2L at 0.5 and the
 # elastic sinusoid, at N = 16, 32, 64, 128, each surface but the finest on a 2x finer mesh and
 # each knob alone at N = $(N), through the run cache on $(NP) ranks ->
 # results/bench/error.{csv,png}, copied to docs/bench/.
@@ -98,19 +98,19 @@ bench-fem: setup
 # `make bench-error-quick`: the same at N = 8 and 16, to results/bench/quick/ (not copied).
 ERROR_SIZES ?= 16 32 64 128
 bench-error: setup
-	@$(MPIRUN) $(PY) -m solver.convergence --base-n $(N) --sizes $(ERROR_SIZES)
+	@$(MPIRUN) $(VENV)/bin/roughfriction bench error --base-n $(N) --sizes $(ERROR_SIZES)
 	@mkdir -p docs/bench && cp results/bench/error.csv results/bench/error.png docs/bench/
 
 bench-error-quick: setup
-	@$(MPIRUN) $(PY) -m solver.convergence --quick
+	@$(MPIRUN) $(VENV)/bin/roughfriction bench error --quick
 
 bench: bench-multiscale bench-fem bench-error
 
-# Stress matrix (solver/stress.py): G1-G9 x F* 0.01-1.86, ST400 test3, penalty and step size
+# Stress matrix (studies/stress.py): G1-G9 x F* 0.01-1.86, ST400 test3, penalty and step size
 # on G5, N = $(N), $(NP) ranks -> results/bench/stress.{csv,md}, copied to docs/bench/ unless a
 # run failed silently (then the command exits 1).
 stress: setup
-	@$(MPIRUN) $(PY) -m solver.stress --n $(N)
+	@$(MPIRUN) $(VENV)/bin/roughfriction bench stress --n $(N)
 	@mkdir -p docs/bench && cp results/bench/stress.csv results/bench/stress.md docs/bench/
 
 clean:

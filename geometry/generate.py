@@ -5,9 +5,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-
-from geometry.errors import InputError
-from geometry.surface import Surface, validate_grid_points
+from roughfriction.errors import InputError
+from roughfriction.geometry.surface import Surface, validate_grid_points
 
 
 def _check_rms(rms: float) -> None:

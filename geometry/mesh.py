@@ -36,10 +36,10 @@ from dataclasses import dataclass
 from enum import IntEnum
 
 import numpy as np
+from roughfriction.case import MeshOptions
+from roughfriction.errors import InputError
 
-from geometry.errors import InputError
-
-# gmsh, dolfinx and mpi4py are imported where the block is built, so that MeshOptions (and the
+# gmsh, dolfinx and mpi4py are imported where the block is built, so that this module (and the
 # command line that builds it) import without them.
 
 #: Smallest accepted ratio of a moved cell's corner Jacobian to the flat cell's [-].
@@ -59,52 +59,6 @@ class Boundary(IntEnum):
 
 #: Cubic cell layers per 2:1 coarsened level [-].
 COARSE_LAYERS_PER_LEVEL = 2
-
-
-@dataclass(frozen=True)
-class MeshOptions:
-    """How the block under the surface is layered.
-
-    Parameters
-    ----------
-    blend_layers : int
-        Layers of thickness h (the grid spacing) over which the roughness fades to flat [-].
-    fine_layers : int
-        Layers at the full lateral resolution (thickness h) from the surface down, blend layers
-        included [-]; ``blend_layers`` if smaller. 4 against 6 (measured): N = 32, F* = 0.93,
-        run time -38 %, mu_s -0.10 % (G5) and +0.0005 % (8L); G5 at N = 128, F* = 0.155:
-        1196 s -> 654 s, mu_s 0.40937 -> 0.40955 (+0.04 %).
-    coarsen : bool
-        Below the fine layers, halve the lateral resolution level by level (2:1, hanging nodes
-        tied exactly), while N stays divisible and at least 2 cells per side remain.
-    growth : float
-        Thickness ratio of successive layers going down where the lateral size no longer
-        changes (no coarsening, or the coarsest level reached) [-], >= 1.
-    depth : float
-        Minimum block depth below the mean surface plane, in periods (N h) [-]. A surface
-        wavelength lambda decays like exp(-2 pi z / lambda): at one period the longest one is down
-        to exp(-2 pi) ~ 0.2 %.
-    """
-
-    blend_layers: int = 4
-    fine_layers: int = 4
-    coarsen: bool = True
-    growth: float = 1.4
-    depth: float = 1.0
-
-    def __post_init__(self):
-        for name in ("blend_layers", "fine_layers"):
-            value = getattr(self, name)
-            if isinstance(value, bool) or int(value) != value:
-                raise InputError(f"{name} must be an integer, got {value!r}")
-            if value < 1:
-                raise InputError(f"{name} must be >= 1, got {value}")
-        if not isinstance(self.coarsen, bool):
-            raise InputError(f"coarsen must be true or false, got {self.coarsen!r}")
-        if not (math.isfinite(self.growth) and 1.0 <= self.growth <= 3.0):
-            raise InputError(f"layer growth ratio must lie in [1, 3], got {self.growth}")
-        if not (math.isfinite(self.depth) and self.depth > 0):
-            raise InputError(f"block depth must be > 0 periods, got {self.depth}")
 
 
 @dataclass(frozen=True, eq=False)

@@ -11,10 +11,9 @@ import re
 from pathlib import Path
 
 import numpy as np
-
-from geometry.errors import InputError
-from geometry.generate import builtin_names, builtin_surface
-from geometry.surface import Surface, crop_square, detrend_plane, fill_missing
+from roughfriction.errors import InputError
+from roughfriction.geometry.generate import builtin_names, builtin_surface
+from roughfriction.geometry.surface import Surface, crop_square, detrend_plane, fill_missing
 
 # Length units accepted in strings [m per unit]; both micro signs (U+00B5, U+03BC) are accepted.
 LENGTH_UNITS = {

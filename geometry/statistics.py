@@ -11,10 +11,9 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-
-from geometry.errors import InputError
-from geometry.surface import Surface
-from solver.material import Material
+from roughfriction.errors import InputError
+from roughfriction.geometry.surface import Surface
+from roughfriction.material import Material
 
 # McCool's summit-height coefficient in Eq. 12 [-]; Eq. 12 needs alpha above it.
 SUMMIT_BANDWIDTH_LIMIT = 0.8968

@@ -11,9 +11,8 @@ import hashlib
 from dataclasses import dataclass
 
 import numpy as np
+from roughfriction.errors import InputError
 from scipy import interpolate, ndimage
-
-from geometry.errors import InputError
 
 
 @dataclass(frozen=True, eq=False)
@@ -283,6 +282,15 @@ def spectral_interpolate(surface: Surface, n: int) -> Surface:
     padded = _pad_spectrum(_pad_spectrum(spectrum, n, axis=0), n, axis=1)
     heights = np.fft.ifft2(padded).real * (n / surface.n) ** 2
     return Surface(heights, surface.period / n, surface.name)
+
+
+def surface_on_fem_grid(surface: Surface, n: int | None) -> Surface:
+    """The surface on N x N points: as is, resampled (coarser) or Fourier-interpolated (finer)."""
+    if n is None or n == surface.n:
+        return surface
+    if n < 4:
+        raise InputError(f"the FEM grid needs >= 4 surface cells per side, got {n}")
+    return resample(surface, n) if n < surface.n else spectral_interpolate(surface, n)
 
 
 def validate_grid_points(n) -> int:

@@ -12,12 +12,11 @@ import warnings
 from dataclasses import dataclass
 
 import numpy as np
-
-from geometry.errors import InputError
-from multiscale.scales import Scales
-from multiscale.sinusoid import junction_growth_factor
-from multiscale.stacking import normal_contact, scale_contact_area
-from solver.material import Material
+from roughfriction.errors import InputError
+from roughfriction.material import Material
+from roughfriction.multiscale.scales import Scales
+from roughfriction.multiscale.sinusoid import junction_growth_factor
+from roughfriction.multiscale.stacking import normal_contact, scale_contact_area
 
 VARIANTS = ("A", "B")
 

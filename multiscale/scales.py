@@ -10,9 +10,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-
-from geometry.errors import InputError
-from geometry.surface import Surface
+from roughfriction.errors import InputError
+from roughfriction.geometry.surface import Surface
 
 
 @dataclass(frozen=True, eq=False)

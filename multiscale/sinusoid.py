@@ -15,8 +15,7 @@ import math
 import warnings
 
 import numpy as np
-
-from solver.material import Material
+from roughfriction.material import Material
 
 # Eqs. 24-25 switch from the blend to the near-complete asymptote at p/p* = 0.8 [S-fix] spec §4.2
 JS_BLEND_LIMIT = 0.8

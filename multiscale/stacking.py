@@ -10,11 +10,10 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-
-from geometry.errors import InputError
-from multiscale.scales import Scales
-from multiscale.sinusoid import contact_area_per_cell
-from solver.material import Material
+from roughfriction.errors import InputError
+from roughfriction.material import Material
+from roughfriction.multiscale.scales import Scales
+from roughfriction.multiscale.sinusoid import contact_area_per_cell
 
 
 @dataclass(frozen=True, eq=False)

@@ -20,7 +20,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from geometry.errors import InputError
+from roughfriction.errors import InputError
 
 CKE_MAX_PSI = 8.0  # Sect. 1
 LET_MAX_PSI = 32.0  # Sect. 1

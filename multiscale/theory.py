@@ -4,12 +4,12 @@ from __future__ import annotations
 
 from dataclasses import asdict, dataclass
 
-from geometry.statistics import surface_statistics
-from geometry.surface import Surface
-from multiscale.friction import static_friction
-from multiscale.scales import Scales, scale_decomposition
-from multiscale.statistical import cke_friction, let_friction
-from solver.material import Material
+from roughfriction.geometry.statistics import surface_statistics
+from roughfriction.geometry.surface import Surface
+from roughfriction.material import Material
+from roughfriction.multiscale.friction import static_friction
+from roughfriction.multiscale.scales import Scales, scale_decomposition
+from roughfriction.multiscale.statistical import cke_friction, let_friction
 
 
 @dataclass(frozen=True)

@@ -7,13 +7,17 @@ import time
 from pathlib import Path
 
 import numpy as np
-
-from geometry.generate import builtin_surface
-from multiscale.friction import static_friction
-from multiscale.scales import scale_decomposition
-from scripts.cases import GAUSSIAN_SURFACES, LOAD_SWEEP, LOAD_SWEEP_SURFACES, PSI_SWEEP_LOADS
-from scripts.figures import write_table
-from solver.material import Material
+from roughfriction.geometry.generate import builtin_surface
+from roughfriction.material import Material
+from roughfriction.multiscale.friction import static_friction
+from roughfriction.multiscale.scales import scale_decomposition
+from roughfriction.scripts.figures import write_table
+from roughfriction.studies.paper import (
+    GAUSSIAN_SURFACES,
+    LOAD_SWEEP,
+    LOAD_SWEEP_SURFACES,
+    PSI_SWEEP_LOADS,
+)
 
 BENCH_DIR = Path("results/bench")
 
@@ -71,13 +75,105 @@ def bench_multiscale(repeats: int = 7) -> dict:
     }
 
 
-def bench_fem() -> dict:
-    """FEM benchmark (G5, F* = 0.155, N = 32, 64, 128 on 2 ranks): see :mod:`solver.benchmark`."""
-    from solver.benchmark import BENCH_DIR as FEM_DIR
-    from solver.benchmark import benchmark_sizes
+def add_bench_commands(bench) -> None:
+    """``roughfriction bench multiscale|fem|error|stress`` under the ``bench`` sub-parser."""
+    from roughfriction.scripts.bench_fem import DEFAULT_SIZES as FEM_SIZES
+    from roughfriction.studies import convergence
+    from roughfriction.studies.paper import DEFAULT_FEM_N
 
-    rows = benchmark_sizes([32, 64, 128], ranks=2)
-    return {"runs": rows, "csv": str(FEM_DIR / "fem.csv")}
+    kinds = bench.add_subparsers(dest="bench_command", required=True)
+    multiscale = kinds.add_parser("multiscale", help="time the theory over Figs. 22-28's cases "
+                                  f"-> {BENCH_DIR / 'multiscale.csv'}")
+    multiscale.set_defaults(run=lambda args: bench_multiscale())
+
+    fem = kinds.add_parser("fem", help="FEM run time and memory per N, each run under mpirun "
+                           f"-> {BENCH_DIR / 'fem.csv'}")
+    fem.add_argument("--n", type=int, nargs="+", default=list(FEM_SIZES),
+                     help=f"surface cells per side (default {' '.join(map(str, FEM_SIZES))})")
+    fem.add_argument("--ranks", type=int, default=2, help="MPI ranks (default 2)")
+    fem.set_defaults(run=cmd_bench_fem)
+
+    error = kinds.add_parser("error", help="run time against error (run under mpirun) -> "
+                             f"{BENCH_DIR / 'error.csv'}, error.png")
+    error.add_argument("--quick", action="store_true",
+                       help=f"sizes {convergence.QUICK_SIZES}, knobs at N = "
+                       f"{convergence.QUICK_BASE_N}; output to {BENCH_DIR / 'quick'}")
+    error.add_argument("--sizes", type=int, nargs="+", metavar="N",
+                       help=f"resolutions of the sweep (default {convergence.SIZES})")
+    error.add_argument("--base-n", type=int, metavar="N",
+                       help=f"resolution of the knob variants (default {convergence.BASE_N})")
+    error.add_argument("--output", metavar="DIR", help="where error.csv and error.png go")
+    error.add_argument("--runs", metavar="DIR", help="run cache directory")
+    error.add_argument("--plan", action="store_true",
+                       help="print the runs per N (cached, to compute) and exit")
+    error.add_argument("--report", action="store_true",
+                       help="write the tables and plot from the runs already in the cache, "
+                       "computing nothing (the others are marked as not computed)")
+    error.set_defaults(run=cmd_bench_error)
+
+    matrix = kinds.add_parser("stress", help="the stress matrix (run under mpirun) -> "
+                              f"{BENCH_DIR / 'stress.csv'}, stress.md")
+    matrix.add_argument("--n", type=int, default=DEFAULT_FEM_N,
+                        help=f"surface cells per side (default {DEFAULT_FEM_N})")
+    matrix.add_argument("--output", metavar="DIR", default=str(BENCH_DIR),
+                        help=f"where stress.csv and stress.md go (default {BENCH_DIR})")
+    matrix.add_argument("--runs", metavar="DIR", help="run cache directory")
+    matrix.add_argument("--plan", action="store_true",
+                        help="print the runs (cached, to compute) and exit")
+    matrix.set_defaults(run=cmd_bench_stress)
+    for parser in (multiscale, fem, error, matrix):
+        parser.add_argument("--json", action="store_true", help="one JSON object on stdout")
 
 
-BENCHMARKS = {"multiscale": bench_multiscale, "fem": bench_fem}
+def cmd_bench_fem(args) -> dict:
+    """FEM benchmark rows (:mod:`roughfriction.scripts.bench_fem`)."""
+    from roughfriction.scripts.bench_fem import BENCH_DIR as FEM_DIR
+    from roughfriction.scripts.bench_fem import benchmark_sizes
+
+    return {"runs": benchmark_sizes(args.n, args.ranks), "csv": str(FEM_DIR / "fem.csv")}
+
+
+def cmd_bench_error(args) -> dict:
+    """Run time against error (:mod:`roughfriction.studies.convergence`)."""
+    from roughfriction.studies import convergence
+    from roughfriction.studies.batch import batch_plan
+
+    sizes, base_n, output = convergence.SIZES, convergence.BASE_N, BENCH_DIR
+    if args.quick:
+        sizes, base_n, output = (convergence.QUICK_SIZES, convergence.QUICK_BASE_N,
+                                 BENCH_DIR / "quick")
+    plan = convergence.ErrorPlan(sizes=tuple(args.sizes or sizes), base_n=args.base_n or base_n)
+    output = Path(args.output) if args.output else output
+    if args.plan:
+        return {"plan": batch_plan([fem for _, _, fem in convergence.benchmark_runs(plan)],
+                                   args.runs)}
+    from mpi4py import MPI
+
+    rows = convergence.run_benchmark(plan, output, MPI.COMM_WORLD, args.runs,
+                                     compute=not args.report)
+    return {"rows": len(rows or []), "csv": str(output / "error.csv")}
+
+
+def cmd_bench_stress(args) -> dict:
+    """The stress matrix (:mod:`roughfriction.studies.stress`); a silent failure is an error."""
+    from roughfriction.errors import InputError
+    from roughfriction.studies import stress
+    from roughfriction.studies.batch import batch_plan
+
+    runs = stress.default_runs(args.n)
+    if args.plan:
+        lines = batch_plan([run.case for run in runs if run.case], args.runs)
+        lines += [f"not run: {run.surface} F*={run.load_star:g}: {run.error}"
+                  for run in runs if run.case is None]
+        return {"plan": lines}
+    from mpi4py import MPI
+
+    comm = MPI.COMM_WORLD
+    rows = stress.run_stress(runs, args.n, stress.MATRIX_LOADS, Path(args.output), comm,
+                             args.runs)
+    silent = comm.bcast(None if rows is None else stress.outcome_counts(rows)[stress.SILENT],
+                        root=0)
+    if silent:
+        raise InputError(f"{silent} SILENT FAILURE(S): see the problems column of "
+                         f"{Path(args.output) / 'stress.csv'}")
+    return {"rows": len(rows or []), "csv": str(Path(args.output) / "stress.csv")}

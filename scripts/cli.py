@@ -12,8 +12,8 @@ import json
 import math
 import sys
 
-from geometry.errors import InputError
-from solver.material import Material
+from roughfriction.errors import InputError
+from roughfriction.material import Material
 
 EXIT_INPUT_ERROR = 2
 
@@ -109,7 +109,7 @@ def add_surface_arguments(parser: argparse.ArgumentParser) -> None:
 
 def surface_from_args(args):
     """Load the surface named on the command line (file or built-in)."""
-    from geometry.readers import load_surface
+    from roughfriction.geometry.readers import load_surface
 
     return load_surface(
         args.surface,
@@ -123,7 +123,7 @@ def surface_from_args(args):
 
 
 def cmd_surface_stats(args) -> dict:
-    from geometry.statistics import surface_statistics
+    from roughfriction.geometry.statistics import surface_statistics
 
     surface = surface_from_args(args)
     stats = surface_statistics(surface, Material())
@@ -131,26 +131,26 @@ def cmd_surface_stats(args) -> dict:
 
 
 def cmd_surface_list(args) -> dict:
-    from geometry.generate import BUILTIN_SURFACES
+    from roughfriction.geometry.generate import BUILTIN_SURFACES
 
     return {name: entry.description for name, entry in BUILTIN_SURFACES.items()}
 
 
 def cmd_multiscale(args) -> dict:
-    from multiscale.theory import evaluate_theory
+    from roughfriction.multiscale.theory import evaluate_theory
 
     surface = surface_from_args(args)
     return evaluate_theory(surface, args.load, Material(), variant=args.variant).as_dict()
 
 
 def cmd_fem(args) -> dict:
-    from solver.command import run_fem
+    from roughfriction.scripts.fem import run_fem
 
     return run_fem(args)
 
 
 def cmd_post(args) -> dict:
-    from solver.post import read_run, run_report, write_map_csvs
+    from roughfriction.studies.post import read_run, run_report, write_map_csvs
 
     run = read_run(args.path)
     record = run_report(run)
@@ -160,10 +160,10 @@ def cmd_post(args) -> dict:
 
 
 def cmd_figure(args) -> dict:
-    from scripts.figures import FIGURES, make_figure
+    from roughfriction.scripts.figures import FIGURES, make_figure
 
     if args.name == "runs":  # every FEM figure's runs, one batch (make figures does this first)
-        from scripts.figures import compute_fem_runs
+        from roughfriction.scripts.figures import compute_fem_runs
 
         return {"fem_cases": compute_fem_runs(n=args.n)}
     if args.name == "all":
@@ -176,12 +176,14 @@ def cmd_figure(args) -> dict:
     return {name: str(make_figure(name, n=args.n)) for name in names}
 
 
-def cmd_bench(args) -> dict:
-    from scripts.bench import BENCHMARKS
+def cmd_runs(args) -> dict:
+    from roughfriction.case import FemCase, Loading
+    from roughfriction.geometry.surface import surface_on_fem_grid
+    from roughfriction.studies.cache import cached_results
 
-    if args.name not in BENCHMARKS:
-        raise InputError(f"unknown benchmark {args.name!r}; known: {', '.join(BENCHMARKS)}")
-    return BENCHMARKS[args.name]()
+    surface = surface_on_fem_grid(surface_from_args(args), args.n)
+    cases = [FemCase(surface, Loading(load, args.normal_only)) for load in args.load]
+    return {"runs": [str(path) for path in cached_results(cases, directory=args.directory)]}
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -226,7 +228,7 @@ def build_parser() -> argparse.ArgumentParser:
         "until every contact node slips (run under mpirun for several ranks)",
     )
     add_surface_arguments(fem)
-    from solver.command import add_fem_arguments  # imports no dolfinx
+    from roughfriction.scripts.fem import add_fem_arguments  # imports no dolfinx
 
     add_fem_arguments(fem)
     fem.set_defaults(run=cmd_fem)
@@ -250,10 +252,22 @@ def build_parser() -> argparse.ArgumentParser:
     figure.add_argument("--json", action="store_true", help="one JSON object on stdout")
     figure.set_defaults(run=cmd_figure)
 
-    bench = commands.add_parser("bench", help="benchmarks; numbers go to results/bench/")
-    bench.add_argument("name", help="which benchmark (multiscale, fem)")
-    bench.add_argument("--json", action="store_true", help="one JSON object on stdout")
-    bench.set_defaults(run=cmd_bench)
+    runs = commands.add_parser(
+        "runs", help="compute the runs missing from the run cache (results/runs, or "
+        "$ROUGHFRICTION_RUNS) and print their results files; loads of one surface share one "
+        "normal loading path")
+    add_surface_arguments(runs)
+    runs.add_argument("--load", type=positive_float, nargs="+", required=True, metavar="FSTAR")
+    runs.add_argument("--n", type=int, metavar="N", help="surface cells per side")
+    runs.add_argument("--normal-only", action="store_true", help="preload only")
+    runs.add_argument("--directory", help="cache directory")
+    runs.add_argument("--json", action="store_true", help="one JSON object on stdout")
+    runs.set_defaults(run=cmd_runs)
+
+    from roughfriction.scripts.bench import add_bench_commands
+
+    add_bench_commands(commands.add_parser("bench", help="benchmarks; numbers go to "
+                                           "results/bench/"))
     return parser
 
 

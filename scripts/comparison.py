@@ -4,15 +4,14 @@ re-grid, plotted at the surface's psi. A statistical value outside its model's p
 (``multiscale.statistical``) is drawn hollow on a dotted line and labelled so."""
 
 import numpy as np
-
-from geometry.generate import builtin_surface
-from geometry.statistics import surface_statistics
-from multiscale.scales import scale_decomposition
-from multiscale.theory import evaluate_theory
-from scripts.cases import FEM_LOAD_SWEEP, GAUSSIAN_SURFACES, LOAD_SWEEP, fem_case
-from scripts.fem_views import fem_label, fem_mu, fem_mu_at_least
-from scripts.figures import new_axes
-from solver.material import Material
+from roughfriction.geometry.generate import builtin_surface
+from roughfriction.geometry.statistics import surface_statistics
+from roughfriction.material import Material
+from roughfriction.multiscale.scales import scale_decomposition
+from roughfriction.multiscale.theory import evaluate_theory
+from roughfriction.scripts.fem_views import fem_label, fem_mu, fem_mu_at_least
+from roughfriction.scripts.figures import new_axes
+from roughfriction.studies.paper import FEM_LOAD_SWEEP, GAUSSIAN_SURFACES, LOAD_SWEEP, fem_case
 
 STAND_INS = ("2L", "8L", "63M")
 

@@ -3,12 +3,11 @@ contact area and tangential load along the loading. Values come from the runs' r
 through ``solver.post``; a run whose preload (or sliding) did not finish gives NaN there."""
 
 import numpy as np
-
-from geometry.generate import builtin_surface
-from geometry.statistics import surface_statistics
-from scripts.figures import new_axes
-from solver.material import Material
-from solver.post import interference, preload_state, tangential_curve
+from roughfriction.geometry.generate import builtin_surface
+from roughfriction.geometry.statistics import surface_statistics
+from roughfriction.material import Material
+from roughfriction.scripts.figures import new_axes
+from roughfriction.studies.post import interference, preload_state, tangential_curve
 
 UM = 1e-6
 

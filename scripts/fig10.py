@@ -1,9 +1,9 @@
 """Fig. 10: contact nodes per contact patch vs F* under normal load, surface 8L (the paper
 reads fewer than 4 nodes per patch as too coarse)."""
 
-from scripts.fem_views import fem_label, patch_columns
-from scripts.fig9 import SURFACE, fem_cases  # noqa: F401  (the same runs as Fig. 9)
-from scripts.figures import new_axes
+from roughfriction.scripts.fem_views import fem_label, patch_columns
+from roughfriction.scripts.fig9 import SURFACE, fem_cases  # noqa: F401  (the same runs as Fig. 9)
+from roughfriction.scripts.figures import new_axes
 
 
 def make(runs):

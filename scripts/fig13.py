@@ -1,8 +1,8 @@
 """Fig. 13: amplitude/wavelength ratio vs wavelength, surface 2L."""
 
-from geometry.generate import builtin_surface
-from multiscale.scales import scale_decomposition
-from scripts.figures import new_axes
+from roughfriction.geometry.generate import builtin_surface
+from roughfriction.multiscale.scales import scale_decomposition
+from roughfriction.scripts.figures import new_axes
 
 SURFACE = "2L"
 UM = 1e-6

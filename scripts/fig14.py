@@ -2,14 +2,13 @@
 with the FEM contact area under the same loads (normal load only) at the right."""
 
 import numpy as np
-
-from geometry.generate import builtin_surface
-from multiscale.scales import scale_decomposition
-from multiscale.stacking import normal_contact
-from scripts.cases import fem_case
-from scripts.fem_views import fem_label, preload_value
-from scripts.figures import new_axes
-from solver.material import Material
+from roughfriction.geometry.generate import builtin_surface
+from roughfriction.material import Material
+from roughfriction.multiscale.scales import scale_decomposition
+from roughfriction.multiscale.stacking import normal_contact
+from roughfriction.scripts.fem_views import fem_label, preload_value
+from roughfriction.scripts.figures import new_axes
+from roughfriction.studies.paper import fem_case
 
 SURFACE = "2L"
 LOADS = (0.06, 0.155, 0.5, 0.93, 1.86)

@@ -2,11 +2,10 @@
 paper reports +18.75 %)."""
 
 import numpy as np
-
-from scripts.cases import JUNCTION_LOAD, JUNCTION_SURFACE, fem_case
-from scripts.fem_views import fem_label
-from scripts.figures import new_axes
-from solver.post import interference, junction_growth, tangential_curve
+from roughfriction.scripts.fem_views import fem_label
+from roughfriction.scripts.figures import new_axes
+from roughfriction.studies.paper import JUNCTION_LOAD, JUNCTION_SURFACE, fem_case
+from roughfriction.studies.post import interference, junction_growth, tangential_curve
 
 
 def fem_cases(n):

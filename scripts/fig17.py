@@ -1,12 +1,11 @@
 """Fig. 17: contact area per scale under normal load only and at sliding inception, 2L, F* = 0.5."""
 
 import numpy as np
-
-from geometry.generate import builtin_surface
-from multiscale.friction import static_friction
-from multiscale.scales import scale_decomposition
-from scripts.figures import new_axes
-from solver.material import Material
+from roughfriction.geometry.generate import builtin_surface
+from roughfriction.material import Material
+from roughfriction.multiscale.friction import static_friction
+from roughfriction.multiscale.scales import scale_decomposition
+from roughfriction.scripts.figures import new_axes
 
 SURFACE = "2L"
 LOAD = 0.5

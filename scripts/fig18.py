@@ -6,12 +6,11 @@ tau_c on scales that still grow; the second rises to exactly tau_c at the finest
 """
 
 import numpy as np
-
-from geometry.generate import builtin_surface
-from multiscale.friction import static_friction
-from multiscale.scales import scale_decomposition
-from scripts.figures import new_axes
-from solver.material import Material
+from roughfriction.geometry.generate import builtin_surface
+from roughfriction.material import Material
+from roughfriction.multiscale.friction import static_friction
+from roughfriction.multiscale.scales import scale_decomposition
+from roughfriction.scripts.figures import new_axes
 
 SURFACE = "2L"
 LOAD = 0.5

@@ -1,10 +1,9 @@
 """Fig. 20: FEM contact area A_r/A_n under normal load vs F* for G1–G9."""
 
 import numpy as np
-
-from scripts.cases import AREA_LOADS, GAUSSIAN_SURFACES, fem_case
-from scripts.fem_views import builtin_psi, fem_label, preload_value
-from scripts.figures import new_axes
+from roughfriction.scripts.fem_views import builtin_psi, fem_label, preload_value
+from roughfriction.scripts.figures import new_axes
+from roughfriction.studies.paper import AREA_LOADS, GAUSSIAN_SURFACES, fem_case
 
 
 def fem_cases(n):

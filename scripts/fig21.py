@@ -3,8 +3,8 @@ preload only: the flat's approach from first touch, max(z) - h at the end of the
 
 from functools import partial
 
-from scripts.cases import CURVE_LOAD, GAUSSIAN_SURFACES, fem_case
-from scripts.fem_views import tangential_curves
+from roughfriction.scripts.fem_views import tangential_curves
+from roughfriction.studies.paper import CURVE_LOAD, GAUSSIAN_SURFACES, fem_case
 
 
 def fem_cases(n):

@@ -2,8 +2,8 @@
 
 from functools import partial
 
-from scripts.cases import PSI_SWEEP_LOADS
-from scripts.comparison import psi_sweep, psi_sweep_cases
+from roughfriction.scripts.comparison import psi_sweep, psi_sweep_cases
+from roughfriction.studies.paper import PSI_SWEEP_LOADS
 
 LOAD = PSI_SWEEP_LOADS[1]
 fem_cases = partial(psi_sweep_cases, LOAD)

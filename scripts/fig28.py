@@ -2,8 +2,8 @@
 
 from functools import partial
 
-from scripts.cases import LOAD_SWEEP_SURFACES
-from scripts.comparison import load_sweep, load_sweep_cases
+from roughfriction.scripts.comparison import load_sweep, load_sweep_cases
+from roughfriction.studies.paper import LOAD_SWEEP_SURFACES
 
 SURFACE = LOAD_SWEEP_SURFACES[2]
 fem_cases = partial(load_sweep_cases, SURFACE)

@@ -2,7 +2,7 @@
 
 from functools import partial
 
-from scripts.fem_views import tangential_curves
-from scripts.fig21 import fem_cases  # noqa: F401  (the same runs as Fig. 21)
+from roughfriction.scripts.fem_views import tangential_curves
+from roughfriction.scripts.fig21 import fem_cases  # noqa: F401  (the same runs as Fig. 21)
 
 make = partial(tangential_curves, normalised=False)

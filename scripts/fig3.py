@@ -1,6 +1,6 @@
 """Fig. 3: three-dimensional plot of surface 2L (stand-in)."""
 
-from scripts.surface_views import surface_3d
+from roughfriction.scripts.surface_views import surface_3d
 
 SURFACE = "2L"
 

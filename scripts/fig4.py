@@ -1,6 +1,6 @@
 """Fig. 4: topographical contour plot of surface 2L (stand-in)."""
 
-from scripts.surface_views import surface_contour
+from roughfriction.scripts.surface_views import surface_contour
 
 SURFACE = "2L"
 

@@ -1,6 +1,6 @@
 """Fig. 5: three-dimensional plot of Gaussian surface G5."""
 
-from scripts.surface_views import surface_3d
+from roughfriction.scripts.surface_views import surface_3d
 
 SURFACE = "G5"
 

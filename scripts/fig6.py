@@ -1,6 +1,6 @@
 """Fig. 6: topographical contour plot of Gaussian surface G5."""
 
-from scripts.surface_views import surface_contour
+from roughfriction.scripts.surface_views import surface_contour
 
 SURFACE = "G5"
 

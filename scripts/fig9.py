@@ -1,8 +1,8 @@
 """Fig. 9: number of contact patches and contact nodes vs F* under normal load, surface 8L."""
 
-from scripts.cases import PATCH_LOADS, fem_case
-from scripts.fem_views import fem_label, patch_columns
-from scripts.figures import new_axes
+from roughfriction.scripts.fem_views import fem_label, patch_columns
+from roughfriction.scripts.figures import new_axes
+from roughfriction.studies.paper import PATCH_LOADS, fem_case
 
 SURFACE = "8L"
 

@@ -12,11 +12,10 @@ each atomically (a killed run never leaves a half-written file under the final n
 from __future__ import annotations
 
 import importlib
-import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
+from roughfriction.files import atomic_write
 
 #: Figures from the surfaces and the theory alone.
 THEORY_FIGURES = ("fig3", "fig4", "fig5", "fig6", "fig12", "fig13", "fig17", "fig18", "fig19")
@@ -39,20 +38,9 @@ def new_axes(width: float = 5.0, height: float = 3.6, ncols: int = 1):
     return fig, ax
 
 
-def _atomic_write(path: Path, write) -> None:
-    """Call ``write(tmp_path)`` then rename the temporary file onto ``path``."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=path.suffix)
-    os.close(fd)
-    try:
-        write(tmp)
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(tmp, 0o666 & ~umask)  # mkstemp makes 0600; give the file the usual mode
-        os.replace(tmp, path)
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
+def figure_module(name: str):
+    """The module of figure ``name`` (``figNN``)."""
+    return importlib.import_module(f"roughfriction.scripts.{name}")
 
 
 def write_table(path: Path, columns: dict[str, np.ndarray]) -> None:
@@ -64,7 +52,7 @@ def write_table(path: Path, columns: dict[str, np.ndarray]) -> None:
     lines = [",".join(columns)]
     lines += [",".join(f"{v:.10g}" if isinstance(v, float | np.floating) else str(v) for v in r)
               for r in rows]
-    _atomic_write(path, lambda tmp: Path(tmp).write_text("\n".join(lines) + "\n"))
+    atomic_write(path, lambda tmp: Path(tmp).write_text("\n".join(lines) + "\n"))
 
 
 def fem_runs(module, n: int | None = None, runs_directory=None) -> list | None:
@@ -81,10 +69,9 @@ def fem_runs(module, n: int | None = None, runs_directory=None) -> list | None:
         The run cache (default :func:`solver.cache.runs_directory`).
     """
     from mpi4py import MPI
-
-    from scripts.cases import fem_resolution
-    from solver.cache import cached_results
-    from solver.post import read_run
+    from roughfriction.studies.cache import cached_results
+    from roughfriction.studies.paper import fem_resolution
+    from roughfriction.studies.post import read_run
 
     comm = MPI.COMM_WORLD
     paths = cached_results(module.fem_cases(fem_resolution(n)), comm, directory=runs_directory)
@@ -99,13 +86,12 @@ def compute_fem_runs(n: int | None = None, runs_directory=None) -> int:
     from dataclasses import replace
 
     from mpi4py import MPI
-
-    from scripts.cases import fem_resolution
-    from solver.cache import cached_results, physics_version, run_key
-    from solver.options import Loading
+    from roughfriction.case import Loading
+    from roughfriction.studies.cache import cached_results, physics_version, run_key
+    from roughfriction.studies.paper import fem_resolution
 
     cases = [case for name in FEM_FIGURES
-             for case in importlib.import_module(f"scripts.{name}").fem_cases(fem_resolution(n))]
+             for case in figure_module(name).fem_cases(fem_resolution(n))]
     physics = physics_version()
 
     def sliding_key(case):
@@ -127,7 +113,7 @@ def make_figure(name: str, directory: Path = FIGURE_DIR, n: int | None = None,
     """
     import matplotlib.pyplot as plt
 
-    module = importlib.import_module(f"scripts.{name}")
+    module = figure_module(name)
     png = Path(directory) / f"{name}.png"
     if hasattr(module, "fem_cases"):
         runs = fem_runs(module, n, runs_directory)
@@ -136,7 +122,7 @@ def make_figure(name: str, directory: Path = FIGURE_DIR, n: int | None = None,
         fig, columns = module.make(runs)
     else:
         fig, columns = module.make()
-    _atomic_write(png, lambda tmp: fig.savefig(tmp, dpi=110, format="png"))
+    atomic_write(png, lambda tmp: fig.savefig(tmp, dpi=110, format="png"))
     plt.close(fig)
     write_table(Path(directory) / f"{name}.csv", columns)
     return png

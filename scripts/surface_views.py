@@ -1,9 +1,8 @@
 """3-D view and contour map of a surface (the paper's Figs. 3–6)."""
 
 import numpy as np
-
-from geometry.generate import builtin_surface
-from scripts.figures import new_axes
+from roughfriction.geometry.generate import builtin_surface
+from roughfriction.scripts.figures import new_axes
 
 UM = 1e-6
 

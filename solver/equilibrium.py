@@ -26,12 +26,11 @@ import numpy as np
 from dolfinx.fem import petsc as fem_petsc
 from mpi4py import MPI
 from petsc4py import PETSc
-
-from solver.contact import ContactResponse, RigidFlat
-from solver.linear import LinearSolveError, LinearSolver
-from solver.options import SolverOptions
-from solver.periodic import PeriodicReduction
-from solver.solid import Solid
+from roughfriction.case import SolverOptions
+from roughfriction.solver.contact import ContactResponse, RigidFlat
+from roughfriction.solver.linear import LinearSolveError, LinearSolver
+from roughfriction.solver.periodic import PeriodicReduction
+from roughfriction.solver.solid import Solid
 
 #: Halvings of a Newton step before it is taken anyway [-].
 LINE_SEARCH_HALVINGS = 5

@@ -13,11 +13,10 @@ from pathlib import Path
 
 import numpy as np
 from dolfinx import fem, io
-
-from geometry.mesh import Block
-from solver.contact import ContactResponse, RigidFlat
-from solver.periodic import dof_node_grid_index
-from solver.solid import Solid
+from roughfriction.geometry.mesh import Block
+from roughfriction.solver.contact import ContactResponse, RigidFlat
+from roughfriction.solver.periodic import dof_node_grid_index
+from roughfriction.solver.solid import Solid
 
 
 class FieldWriter:

@@ -17,8 +17,7 @@ import numpy as np
 from dolfinx import la
 from mpi4py import MPI
 from petsc4py import PETSc
-
-from geometry.mesh import Block, interpolation_masters
+from roughfriction.geometry.mesh import Block, interpolation_masters
 
 
 def dof_node_grid_index(V, block: Block) -> np.ndarray:

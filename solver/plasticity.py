@@ -12,8 +12,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-
-from solver.material import Material
+from roughfriction.material import Material
 
 #: Points with von Mises overstress f > -YIELD_TOLERANCE S_y count as on the yield surface [-].
 YIELD_TOLERANCE = 1e-9

@@ -3,12 +3,13 @@
 from __future__ import annotations
 
 import json
-import os
 import subprocess
 from dataclasses import dataclass, fields
 from pathlib import Path
 
 import numpy as np
+from roughfriction.case import FemCase
+from roughfriction.files import atomic_write
 from scipy import ndimage
 
 
@@ -205,7 +206,7 @@ def git_revision() -> str:
     return revision.stdout.strip()
 
 
-def write_hdf5(path: Path, inputs: dict, result: FemResult, maps: dict) -> None:
+def write_hdf5(path: Path, inputs: dict, result: FemResult, maps: dict, note: str = "") -> None:
     """Write a run to HDF5 atomically (temporary file, then rename). Call on one rank.
 
     Layout: root attributes ``inputs``, ``summary`` (JSON), ``versions``, ``git``,
@@ -222,19 +223,24 @@ def write_hdf5(path: Path, inputs: dict, result: FemResult, maps: dict) -> None:
         The run.
     maps : dict
         Name -> N x N array (e.g. contact at the end of preload and at inception).
+    note : str
+        How the run was obtained, if not the usual way (root attribute ``note``).
     """
+    atomic_write(Path(path), lambda temporary: _write_hdf5(temporary, inputs, result, maps, note))
+
+
+def _write_hdf5(path, inputs: dict, result: FemResult, maps: dict, note: str) -> None:
     import h5py
 
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    temporary = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    with h5py.File(temporary, "w") as h5:
+    with h5py.File(path, "w") as h5:
         h5.attrs["inputs"] = json.dumps(inputs)
         h5.attrs["summary"] = json.dumps(result.summary())
         h5.attrs["versions"] = json.dumps(package_versions())
         h5.attrs["git"] = git_revision()
         h5.attrs["converged"] = result.converged
         h5.attrs["message"] = result.message
+        if note:
+            h5.attrs["note"] = note
         steps = h5.create_group("steps")
         for field in fields(StepRecord):
             values = [getattr(record, field.name) for record in result.records]
@@ -247,5 +253,30 @@ def write_hdf5(path: Path, inputs: dict, result: FemResult, maps: dict) -> None:
         grid_maps = h5.create_group("maps")
         for name, values in maps.items():
             grid_maps.create_dataset(name, data=values)
-    os.replace(temporary, path)
 
+
+def save_run(path: Path, case: FemCase, fem_run, comm, note: str = "") -> None:
+    """Write a run's results file (rank 0 writes, atomically; every rank waits for it).
+
+    The file holds the case's inputs, the records and summary, and the surface maps of the
+    run plus ``surface_heights``, the N x N heights of the FEM grid [m] (for the interference
+    and for drawing maps over the topography), and the root attribute ``note`` if given.
+
+    Parameters
+    ----------
+    path : pathlib.Path
+        Destination HDF5 file.
+    case : FemCase
+        The case that was run.
+    fem_run : solver.run.FemRun
+        Its outcome.
+    comm : mpi4py.MPI.Comm
+        The communicator the run used; call on every rank.
+    note : str
+        How the run was obtained, if not the usual way (e.g. on a standalone path after its
+        shared normal path failed, see :mod:`roughfriction.studies.cache`).
+    """
+    if comm.rank == 0:
+        maps = {"surface_heights": case.surface.heights, **fem_run.maps}
+        write_hdf5(path, case.inputs(), fem_run.result, maps, note)
+    comm.barrier()

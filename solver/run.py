@@ -13,16 +13,15 @@ from pathlib import Path
 
 import numpy as np
 from mpi4py import MPI
-
-from geometry.mesh import Block, build_block
-from solver.contact import RigidFlat
-from solver.equilibrium import Equilibrium
-from solver.fields import FieldWriter
-from solver.options import FemCase, Loading
-from solver.periodic import PeriodicReduction, dof_node_grid_index
-from solver.results import FemResult
-from solver.solid import Solid
-from solver.stepping import LoadPath, Outcome
+from roughfriction.case import FemCase, Loading
+from roughfriction.geometry.mesh import Block, build_block
+from roughfriction.solver.contact import RigidFlat
+from roughfriction.solver.equilibrium import Equilibrium
+from roughfriction.solver.fields import FieldWriter
+from roughfriction.solver.periodic import PeriodicReduction, dof_node_grid_index
+from roughfriction.solver.results import FemResult
+from roughfriction.solver.solid import Solid
+from roughfriction.solver.stepping import LoadPath, Outcome
 
 
 @dataclass(frozen=True, eq=False)

@@ -24,9 +24,8 @@ import ufl
 from dolfinx import fem
 from dolfinx import mesh as dolfinx_mesh
 from mpi4py import MPI
-
-from solver.material import Material
-from solver.plasticity import J2Response, J2State, radial_return, von_mises
+from roughfriction.material import Material
+from roughfriction.solver.plasticity import J2Response, J2State, radial_return, von_mises
 
 #: Quadrature degree of the 2 x 2 x 2 Gauss rule on hexahedra (basix: degree 2 and 3 give it).
 DEVIATORIC_DEGREE = 2

@@ -13,11 +13,10 @@ import time
 from dataclasses import dataclass
 
 import numpy as np
-
-from solver.contact import ContactResponse
-from solver.equilibrium import Equilibrium, NewtonReport
-from solver.options import FemCase
-from solver.results import StepRecord, count_patches
+from roughfriction.case import FemCase
+from roughfriction.solver.contact import ContactResponse
+from roughfriction.solver.equilibrium import Equilibrium, NewtonReport
+from roughfriction.solver.results import StepRecord, count_patches
 
 GROWTH = 1.5
 #: Grow the step after at most this many Newton iterations [-]. 6 kept the slide increments of

@@ -1,6 +1,6 @@
 """The FEM benchmark's table (solver/benchmark.py), with a stand-in for the mpirun runs."""
 
-from solver import benchmark
+from roughfriction.scripts import bench_fem as benchmark
 
 
 def test_rows_of_other_sizes_and_rank_counts_are_kept(tmp_path, monkeypatch):

@@ -1,5 +1,6 @@
 """Run cache: keys, reuse, grouping, entries written one by one, and a run killed mid-way."""
 
+import json
 import os
 import selectors
 import signal
@@ -12,19 +13,20 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
-from geometry.surface import Surface
-from solver import cache
-from solver.cache import (
+from roughfriction.case import FemCase, Loading, SolverOptions
+from roughfriction.geometry.surface import Surface
+from roughfriction.solver.results import FemResult, StepRecord
+from roughfriction.studies import cache
+from roughfriction.studies.cache import (
+    PHYSICS_MODULES,
+    SOLVER_OUTPUT_MODULES,
     cached_results,
     entry_path,
     finished_entry,
-    physics_files,
+    physics_sources,
     physics_version,
     run_key,
 )
-from solver.options import FemCase, Loading, SolverOptions
-from solver.results import FemResult, StepRecord
 
 ROOT = Path(__file__).resolve().parent.parent
 PHYSICS = physics_version()
@@ -39,8 +41,9 @@ def rough_case(load=0.155, normal_only=False, seed=3, name="G-test", **solver):
 # --- keys ------------------------------------------------------------------------------------
 
 def test_key_is_the_same_in_another_process():
-    code = ("from tests.test_cache import rough_case; from solver.cache import run_key, "
-            "physics_version; print(run_key(rough_case(), physics_version()))")
+    code = ("from tests.test_cache import rough_case; "
+            "from roughfriction.studies.cache import run_key, physics_version; "
+            "print(run_key(rough_case(), physics_version()))")
     other = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True,
                            text=True, check=True).stdout.strip()
     assert other == run_key(rough_case(), PHYSICS)
@@ -66,29 +69,41 @@ def test_key_changes_with_one_height():
     assert run_key(changed, PHYSICS) != run_key(case, PHYSICS)
 
 
-def copy_physics_sources(destination: Path) -> None:
-    for path in physics_files(ROOT):
-        target = destination / path.relative_to(ROOT)
-        target.parent.mkdir(parents=True, exist_ok=True)
-        target.write_bytes(path.read_bytes())
+def copy_physics_sources(destination: Path) -> dict[str, Path]:
+    copies = {}
+    for name, path in physics_sources().items():
+        copies[name] = destination / f"{name}.py"
+        copies[name].write_bytes(path.read_bytes())
+    return copies
+
+
+def test_every_solver_module_is_declared_physics_or_output():
+    import pkgutil
+
+    import roughfriction.solver
+
+    modules = {f"roughfriction.solver.{info.name}"
+               for info in pkgutil.iter_modules(roughfriction.solver.__path__)}
+    declared = set(PHYSICS_MODULES) | set(SOLVER_OUTPUT_MODULES)
+    assert modules <= declared, f"classify {sorted(modules - declared)} in studies/cache.py"
 
 
 def test_physics_version_follows_the_physics_sources(tmp_path):
-    names = {path.relative_to(ROOT).as_posix() for path in physics_files(ROOT)}
-    assert {"solver/equilibrium.py", "solver/contact.py", "solver/run.py", "geometry/mesh.py",
-            "geometry/surface.py"} <= names
-    assert not names & {"solver/cache.py", "solver/command.py", "solver/benchmark.py",
-                        "solver/post.py", "geometry/readers.py"}
-    copy_physics_sources(tmp_path)
-    assert physics_version(tmp_path) == PHYSICS  # contents, not place or git
-    (tmp_path / "solver" / "cache.py").write_text("# not physics\n")
-    assert physics_version(tmp_path) == PHYSICS
-    contact = tmp_path / "solver" / "contact.py"
+    sources = physics_sources()
+    assert {"roughfriction.solver.equilibrium", "roughfriction.solver.contact",
+            "roughfriction.solver.run", "roughfriction.geometry.mesh",
+            "roughfriction.geometry.surface", "roughfriction.material"} <= set(sources)
+    assert not set(sources) & {"roughfriction.studies.cache", "roughfriction.scripts.fem",
+                               "roughfriction.studies.post", "roughfriction.geometry.readers",
+                               "roughfriction.solver.fields"}
+    copies = copy_physics_sources(tmp_path)
+    assert physics_version(copies) == PHYSICS  # contents, not place or git
+    contact = copies["roughfriction.solver.contact"]
     source = contact.read_text()
     contact.write_text(source.replace('"""', '"""Reworded. ', 1) + "\n# a comment\n")
-    assert physics_version(tmp_path) == PHYSICS  # documentation only: the runs stay valid
+    assert physics_version(copies) == PHYSICS  # documentation only: the runs stay valid
     contact.write_text(source + "\nEXTRA_CONSTANT = 1\n")
-    changed = physics_version(tmp_path)
+    changed = physics_version(copies)
     assert changed != PHYSICS
     assert run_key(rough_case(), changed) != run_key(rough_case(), PHYSICS)
 
@@ -140,11 +155,10 @@ class FakeFem:
 
 @pytest.fixture
 def fake_fem(tmp_path, monkeypatch):
-    pytest.importorskip("dolfinx")  # write_hdf5 records the dolfinx version
     fake = FakeFem(tmp_path)
-    module = types.ModuleType("solver.run")
+    module = types.ModuleType("roughfriction.solver.run")
     module.run_loads = fake.run_loads
-    monkeypatch.setitem(sys.modules, "solver.run", module)
+    monkeypatch.setitem(sys.modules, "roughfriction.solver.run", module)
     return fake
 
 
@@ -160,7 +174,7 @@ def fill(cases, directory, lines=None):
 
 
 def test_missing_runs_are_grouped_by_all_but_the_load(fake_fem, tmp_path):
-    from solver.post import read_run
+    from roughfriction.studies.post import read_run
 
     cases = [rough_case(0.3), rough_case(0.155), rough_case(0.3), rough_case(0.155, True),
              rough_case(0.155, seed=5, name="other")]
@@ -222,7 +236,7 @@ def test_a_failure_keeps_the_runs_finished_before_it(fake_fem, tmp_path):
 
 
 def test_a_run_that_fails_on_the_shared_path_is_run_again_alone(fake_fem, tmp_path):
-    from solver.post import read_run
+    from roughfriction.studies.post import read_run
 
     cases = [rough_case(0.155), rough_case(0.3), rough_case(0.5)]
     fake_fem.stalls = {("G-test", 0.3)}
@@ -241,7 +255,7 @@ def test_a_run_that_fails_on_the_shared_path_is_run_again_alone(fake_fem, tmp_pa
 
 
 def test_a_run_that_fails_alone_too_keeps_its_shared_entry(fake_fem, tmp_path):
-    from solver.post import read_run
+    from roughfriction.studies.post import read_run
 
     fake_fem.stalls, fake_fem.stalls_alone = {("G-test", 0.3)}, True
     paths = fill([rough_case(0.155), rough_case(0.3)], tmp_path)
@@ -277,10 +291,9 @@ def resident_megabytes() -> float:
 def test_released_runs_leave_no_memory_behind():
     """Without the release each of these runs leaves ~6 MB behind (petsc4py 3.18 does not free
     PETSc objects that reference each other)."""
-    pytest.importorskip("dolfinx")
-    from geometry.generate import builtin_surface
-    from solver.command import surface_on_fem_grid
-    from solver.run import run
+    from roughfriction.geometry.generate import builtin_surface
+    from roughfriction.geometry.surface import surface_on_fem_grid
+    from roughfriction.solver.run import run
 
     case = FemCase(surface_on_fem_grid(builtin_surface("G5"), 8), Loading(0.155))
     resident = []
@@ -345,13 +358,12 @@ def wait_for_line(process, text: str, seconds: float) -> str:
 
 @pytest.mark.fem
 def test_a_killed_run_leaves_no_entry_and_a_rerun_completes(tmp_path):
-    pytest.importorskip("dolfinx")
-    from geometry.generate import builtin_surface
-    from solver.command import surface_on_fem_grid
-    from solver.post import read_run
+    from roughfriction.geometry.generate import builtin_surface
+    from roughfriction.geometry.surface import surface_on_fem_grid
+    from roughfriction.studies.post import read_run
 
-    command = [sys.executable, "-m", "solver.cache", "G5", "--load", "0.155", "--n", "8",
-               "--directory", str(tmp_path)]
+    command = [sys.executable, "-m", "roughfriction.scripts.cli", "runs", "G5", "--load", "0.155",
+               "--n", "8", "--directory", str(tmp_path), "--json"]
     process = subprocess.Popen(command, cwd=ROOT, env=command_environment(), text=True,
                                stdout=subprocess.PIPE, stderr=subprocess.PIPE)
     try:
@@ -369,7 +381,7 @@ def test_a_killed_run_leaves_no_entry_and_a_rerun_completes(tmp_path):
     assert done.returncode == 0, done.stderr
     case = FemCase(surface_on_fem_grid(builtin_surface("G5"), 8), Loading(0.155))
     path = entry_path(tmp_path, case, PHYSICS)
-    assert done.stdout.strip() == str(path)
+    assert json.loads(done.stdout)["runs"] == [str(path)]
     entry = read_run(path)
     assert entry.converged and entry.summary["mu_s"] > 0
     assert entry.maps["surface_heights"].shape == (8, 8)
@@ -381,10 +393,8 @@ def test_a_killed_run_leaves_no_entry_and_a_rerun_completes(tmp_path):
 def test_an_entry_computed_on_two_ranks_serves_one_rank(tmp_path, monkeypatch):
     """Every rank computes, rank 0 writes; the key has no rank count, so a serial request
     finds the two-rank entry."""
-    pytest.importorskip("dolfinx")
     from mpi4py import MPI
-
-    from solver.post import read_run
+    from roughfriction.studies.post import read_run
 
     comm = MPI.COMM_WORLD
     assert comm.size == 2, "run under mpirun -n 2"
@@ -394,8 +404,8 @@ def test_an_entry_computed_on_two_ranks_serves_one_rank(tmp_path, monkeypatch):
     assert path == entry_path(directory, case, PHYSICS)
     if comm.rank == 0:
         assert read_run(path).sizes["ranks"] == 2
-        module = types.ModuleType("solver.run")
+        module = types.ModuleType("roughfriction.solver.run")
         module.run_loads = lambda *args, **kwargs: pytest.fail("recomputed")
-        monkeypatch.setitem(sys.modules, "solver.run", module)
+        monkeypatch.setitem(sys.modules, "roughfriction.solver.run", module)
         assert cached_results([case], MPI.COMM_SELF, lambda line: None, directory) == [path]
     comm.barrier()

@@ -6,10 +6,9 @@ import sys
 
 import numpy as np
 import pytest
-
-from geometry.generate import builtin_surface
-from scripts.cli import EXIT_INPUT_ERROR, main
-from solver.material import Material
+from roughfriction.geometry.generate import builtin_surface
+from roughfriction.material import Material
+from roughfriction.scripts.cli import EXIT_INPUT_ERROR, main
 
 STATS_KEYS = {"rq", "m0", "m2", "m4", "alpha", "sigma_s", "R", "psi"}
 THEORY_KEYS = {"psi", "mu_s", "Ft_max", "area_ratio_normal", "area_ratio_sliding", "mu_cke",
@@ -84,7 +83,7 @@ def test_bad_load_is_refused(load, capsys):
 
 def test_console_script_exit_code_without_traceback():
     done = subprocess.run(
-        [sys.executable, "-m", "scripts.cli", "multiscale", "G10", "--load", "0.1"],
+        [sys.executable, "-m", "roughfriction.scripts.cli", "multiscale", "G10", "--load", "0.1"],
         capture_output=True, text=True, check=False,
     )
     assert done.returncode == EXIT_INPUT_ERROR
@@ -95,7 +94,8 @@ def test_console_script_exit_code_without_traceback():
 def test_theory_commands_import_no_fem_stack():
     """multiscale/ and the surface half of geometry/ work without dolfinx, gmsh or MPI."""
     code = (
-        "import sys; from scripts.cli import main; main(['multiscale', 'G1', '--load', '0.1']); "
+        "import sys; from roughfriction.scripts.cli import main; "
+        "main(['multiscale', 'G1', '--load', '0.1']); "
         "print(sorted(m for m in sys.modules if m.split('.')[0] in "
         "('dolfinx', 'gmsh', 'petsc4py', 'mpi4py', 'ufl')))"
     )

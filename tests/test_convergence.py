@@ -7,11 +7,12 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
-from geometry.generate import builtin_surface
-from solver.batch import NOT_IN_CACHE, BatchResult, batch_groups, csv_text
-from solver.command import surface_on_fem_grid
-from solver.convergence import (
+from roughfriction.case import SolverOptions
+from roughfriction.geometry.generate import builtin_surface
+from roughfriction.geometry.surface import surface_on_fem_grid
+from roughfriction.material import Material
+from roughfriction.studies.batch import NOT_IN_CACHE, BatchResult, batch_groups, csv_text
+from roughfriction.studies.convergence import (
     CASES,
     SINUSOID_SLOPE,
     ErrorPlan,
@@ -34,8 +35,6 @@ from solver.convergence import (
     sinusoid_p_star,
     sinusoid_surface,
 )
-from solver.material import Material
-from solver.options import SolverOptions
 
 G5_LOW, G5_HIGH, TWO_L, SINE = CASES
 
@@ -255,7 +254,6 @@ def test_tiny_benchmark_end_to_end(tmp_path, capsys):
     """G5 at F* = 0.155 and the sinusoid at N = 4 and 8, serial: every run converges, the
     reference has no error, the sinusoid's p* error shrinks with N, the outputs are written,
     and a second pass computes nothing (the run cache)."""
-    pytest.importorskip("dolfinx")
     from mpi4py import MPI
 
     plan = ErrorPlan(cases=(G5_LOW, SINE), sizes=(4, 8), base_n=4,
@@ -287,7 +285,7 @@ def test_tiny_benchmark_end_to_end(tmp_path, capsys):
     assert [row["wall_s"] for row in second] == [row["wall_s"] for row in rows]
 
     # --report: from the cache only; a missing run is reported, not computed
-    from solver.cache import entry_path, physics_version
+    from roughfriction.studies.cache import entry_path, physics_version
 
     runs = dict(((case.label, variant.label), fem) for case, variant, fem in
                 benchmark_runs(plan))

@@ -11,11 +11,16 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
-from scripts.cases import FEM_LOAD_SWEEP
-from scripts.figures import FEM_FIGURES, FIGURES, THEORY_FIGURES, make_figure, write_table
-from solver.material import Material
-from solver.options import FemCase
+from roughfriction.case import FemCase
+from roughfriction.material import Material
+from roughfriction.scripts.figures import (
+    FEM_FIGURES,
+    FIGURES,
+    THEORY_FIGURES,
+    make_figure,
+    write_table,
+)
+from roughfriction.studies.paper import FEM_LOAD_SWEEP
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -82,7 +87,7 @@ def test_registry_lists_every_figure_script():
 
 @pytest.mark.parametrize("name", FEM_FIGURES)
 def test_fem_figure_declares_its_runs(name):
-    module = importlib.import_module(f"scripts.{name}")
+    module = importlib.import_module(f"roughfriction.scripts.{name}")
     cases = module.fem_cases(8)
     assert cases and all(isinstance(case, FemCase) and case.surface.n == 8 for case in cases)
     assert callable(module.make)
@@ -90,13 +95,13 @@ def test_fem_figure_declares_its_runs(name):
 
 @pytest.mark.parametrize("name", THEORY_FIGURES)
 def test_theory_figure_needs_no_runs(name):
-    assert not hasattr(importlib.import_module(f"scripts.{name}"), "fem_cases")
+    assert not hasattr(importlib.import_module(f"roughfriction.scripts.{name}"), "fem_cases")
 
 
 def test_fem_figures_share_runs():
     """Fig. 14's loads are among Figs. 26–28's, so 2L's sliding runs answer them; Figs. 10
     and 29 use exactly the runs of Figs. 9 and 21."""
-    from scripts import fig9, fig10, fig14, fig21, fig29
+    from roughfriction.scripts import fig9, fig10, fig14, fig21, fig29
 
     assert set(fig14.LOADS) <= set(FEM_LOAD_SWEEP)
     for one, other in ((fig9, fig10), (fig21, fig29)):
@@ -116,7 +121,7 @@ AT_LEAST = "FEM failed before inception: $\\mu_s \\geq$"
 
 
 def test_mu_vs_psi_marks_statistical_models_outside_their_range(monkeypatch):
-    from scripts import fem_views, fig22, fig23
+    from roughfriction.scripts import fem_views, fig22, fig23
 
     # G2 failed before sliding inception, at F_t/F_n = 2.3 and rising
     monkeypatch.setattr(fem_views, "tangential_curve",
@@ -139,7 +144,7 @@ def test_mu_vs_psi_marks_statistical_models_outside_their_range(monkeypatch):
 
 
 def test_mu_vs_load_columns():
-    from scripts import fig28
+    from roughfriction.scripts import fig28
 
     cases = fig28.fem_cases(8)
     fig, columns = fig28.make(fake_runs(cases, [0.7] * len(cases)))
@@ -150,7 +155,7 @@ def test_mu_vs_load_columns():
 
 
 def test_mu_vs_load_notes_a_failed_run_with_its_lower_bound(monkeypatch):
-    from scripts import fem_views, fig28
+    from roughfriction.scripts import fem_views, fig28
 
     monkeypatch.setattr(fem_views, "tangential_curve",
                         lambda run: {"Ft_over_Fn": np.array([0.0, 0.61])})
@@ -167,7 +172,6 @@ def test_mu_vs_load_notes_a_failed_run_with_its_lower_bound(monkeypatch):
 @pytest.mark.fem
 def test_fig14_with_fem_points_end_to_end_and_cached(tmp_path, monkeypatch):
     """Five normal-only 2L runs on an 8 x 8 grid; the second call reads them from the cache."""
-    pytest.importorskip("dolfinx")
     runs = tmp_path / "runs"
     make_figure("fig14", tmp_path, n=8, runs_directory=runs)
     assert (tmp_path / "fig14.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
@@ -182,9 +186,9 @@ def test_fig14_with_fem_points_end_to_end_and_cached(tmp_path, monkeypatch):
     fem = [data["fem_area_ratio"][data["load_star"] == load][0] for load in loads]
     assert all(0 < area <= 1 for area in fem) and np.all(np.diff(fem) >= 0)
 
-    module = types.ModuleType("solver.run")
+    module = types.ModuleType("roughfriction.solver.run")
     module.run_loads = lambda *args, **kwargs: pytest.fail("a cached run was recomputed")
-    monkeypatch.setitem(sys.modules, "solver.run", module)
+    monkeypatch.setitem(sys.modules, "roughfriction.solver.run", module)
     (tmp_path / "fig14.png").unlink()
     started = time.perf_counter()
     make_figure("fig14", tmp_path, n=8, runs_directory=runs)

@@ -4,12 +4,11 @@ import math
 
 import numpy as np
 import pytest
-
-from geometry.errors import InputError
-from geometry.surface import Surface
-from multiscale.friction import static_friction
-from multiscale.scales import Scales, scale_decomposition
-from solver.material import Material
+from roughfriction.errors import InputError
+from roughfriction.geometry.surface import Surface
+from roughfriction.material import Material
+from roughfriction.multiscale.friction import static_friction
+from roughfriction.multiscale.scales import Scales, scale_decomposition
 
 MATERIAL = Material()
 UM = 1e-6

@@ -2,17 +2,16 @@
 
 import numpy as np
 import pytest
-
-from geometry.errors import InputError
-from geometry.generate import (
+from roughfriction.errors import InputError
+from roughfriction.geometry.generate import (
     BUILTIN_SURFACES,
     builtin_names,
     builtin_surface,
     gaussian_surface,
     self_affine_surface,
 )
-from geometry.statistics import rms_height
-from multiscale.scales import scale_decomposition
+from roughfriction.geometry.statistics import rms_height
+from roughfriction.multiscale.scales import scale_decomposition
 
 
 def rms_gradient(surface):

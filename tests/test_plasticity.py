@@ -2,9 +2,8 @@
 
 import numpy as np
 import pytest
-
-from solver.material import Material
-from solver.plasticity import J2State, deviator, radial_return, von_mises
+from roughfriction.material import Material
+from roughfriction.solver.plasticity import J2State, deviator, radial_return, von_mises
 
 MATERIAL = Material()
 

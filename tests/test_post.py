@@ -5,12 +5,12 @@ import json
 
 import numpy as np
 import pytest
-
-from geometry.errors import InputError
-from geometry.surface import Surface
-from scripts.cli import EXIT_INPUT_ERROR, main
-from solver.options import FemCase, Loading
-from solver.post import (
+from roughfriction.case import FemCase, Loading
+from roughfriction.errors import InputError
+from roughfriction.geometry.surface import Surface
+from roughfriction.scripts.cli import EXIT_INPUT_ERROR, main
+from roughfriction.solver.results import FemResult, StepRecord
+from roughfriction.studies.post import (
     interference,
     junction_growth,
     map_summary,
@@ -21,7 +21,6 @@ from solver.post import (
     tangential_curve,
     write_map_csvs,
 )
-from solver.results import FemResult, StepRecord
 
 N, SPACING, LOAD = 6, 1e-6, 0.3
 HEIGHTS = np.random.default_rng(1).normal(0.0, 0.1e-6, (N, N))
@@ -52,8 +51,7 @@ def contact_map():
 
 
 def write_run(path, steps=STEPS, converged=True, message=""):
-    pytest.importorskip("dolfinx")  # write_hdf5 records the dolfinx version
-    from solver.results import write_hdf5
+    from roughfriction.solver.results import write_hdf5
 
     result = FemResult(records(steps), converged, message, False, {"total_s": 3.0},
                        {"ranks": 2, "linear_solver": "direct"})

@@ -7,12 +7,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
-from geometry.errors import InputError
-from geometry.generate import builtin_surface
-from geometry.readers import load_surface, parse_length, read_surface
-from geometry.statistics import rms_height
-from geometry.surface import detrend_plane
+from roughfriction.errors import InputError
+from roughfriction.geometry.generate import builtin_surface
+from roughfriction.geometry.readers import load_surface, parse_length, read_surface
+from roughfriction.geometry.statistics import rms_height
+from roughfriction.geometry.surface import detrend_plane
 
 # The shared measured samples live beside the checkout: <repo>/../shared/data/surfaces.
 DEFAULT_DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "surfaces"

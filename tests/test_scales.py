@@ -2,10 +2,9 @@
 
 import numpy as np
 import pytest
-
-from geometry.errors import InputError
-from geometry.surface import Surface
-from multiscale.scales import Scales, scale_decomposition, shell_variances
+from roughfriction.errors import InputError
+from roughfriction.geometry.surface import Surface
+from roughfriction.multiscale.scales import Scales, scale_decomposition, shell_variances
 
 N = 128
 SPACING = 1e-6  # [m]: 128 points over the paper's 127 um scan

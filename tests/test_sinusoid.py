@@ -4,8 +4,8 @@ import math
 
 import numpy as np
 import pytest
-
-from multiscale.sinusoid import (
+from roughfriction.material import Material
+from roughfriction.multiscale.sinusoid import (
     complete_contact_pressure,
     contact_area_per_cell,
     critical_amplitude,
@@ -24,7 +24,6 @@ from multiscale.sinusoid import (
     poisson_coefficient_c_nu,
     regime_complete_contact_pressure,
 )
-from solver.material import Material
 
 MATERIAL = Material()
 MPA = 1e6

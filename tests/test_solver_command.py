@@ -2,18 +2,16 @@
 
 import json
 
+import dolfinx  # noqa: E402, F401  (an install without the FEM fails here)
+import h5py  # noqa: E402
 import numpy as np
 import pytest
-
-pytest.importorskip("dolfinx")
-
-import h5py  # noqa: E402
-
-from geometry.errors import InputError  # noqa: E402
-from geometry.generate import builtin_surface  # noqa: E402
-from solver.command import main, surface_on_fem_grid  # noqa: E402
-from solver.options import Loading, SolverOptions  # noqa: E402
-from solver.results import count_patches  # noqa: E402
+from roughfriction.case import Loading, SolverOptions  # noqa: E402
+from roughfriction.errors import InputError  # noqa: E402
+from roughfriction.geometry.generate import builtin_surface  # noqa: E402
+from roughfriction.geometry.surface import surface_on_fem_grid
+from roughfriction.scripts.fem import main  # noqa: E402
+from roughfriction.solver.results import count_patches  # noqa: E402
 
 JSON_KEYS = {"mu_s", "Ft_max", "Fn", "area_ratio_normal", "area_ratio_sliding",
              "junction_growth", "contact_nodes", "contact_patches", "steps", "newton_iterations",

@@ -3,8 +3,7 @@
 import numpy as np
 import pytest
 from mpi4py import MPI
-
-from solver.contact import RigidFlat
+from roughfriction.solver.contact import RigidFlat
 
 TAU_C = 577e6  # [Pa]
 RAMP = 10e6  # [Pa]

@@ -1,16 +1,13 @@
 """Newton loop of solver.equilibrium: active-set rounds of the contact set."""
 
+import dolfinx  # noqa: E402, F401  (an install without the FEM fails here)
 import numpy as np
 import pytest
-
-pytest.importorskip("dolfinx")
-
 from mpi4py import MPI  # noqa: E402
-
-from geometry.surface import Surface  # noqa: E402
-from solver.equilibrium import MAX_ROUNDS, Equilibrium  # noqa: E402
-from solver.options import FemCase, Loading, SolverOptions  # noqa: E402
-from solver.run import run  # noqa: E402
+from roughfriction.case import FemCase, Loading, SolverOptions  # noqa: E402
+from roughfriction.geometry.surface import Surface  # noqa: E402
+from roughfriction.solver.equilibrium import MAX_ROUNDS, Equilibrium  # noqa: E402
+from roughfriction.solver.run import run  # noqa: E402
 
 pytestmark = pytest.mark.fem
 
@@ -20,7 +17,7 @@ MAX_ITERATIONS = 8
 def newton_reports(rounds: int, monkeypatch) -> list:
     """Reports of every Newton solve of a random 16 x 16 surface preloaded to F* = 1 from one
     first increment, ``MAX_ITERATIONS`` per round and at most ``rounds`` rounds."""
-    monkeypatch.setattr("solver.equilibrium.MAX_ROUNDS", rounds)
+    monkeypatch.setattr("roughfriction.solver.equilibrium.MAX_ROUNDS", rounds)
     reports = []
     newton = Equilibrium._newton
 

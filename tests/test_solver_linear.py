@@ -1,13 +1,10 @@
 """Linear solves of solver.linear: the GMRES retry of a CG solve that meets indefiniteness."""
 
+import dolfinx  # noqa: E402, F401  (an install without the FEM fails here)
 import pytest
-
-pytest.importorskip("dolfinx")
-
 from mpi4py import MPI  # noqa: E402
 from petsc4py import PETSc  # noqa: E402
-
-from solver.linear import LinearSolveError, LinearSolver  # noqa: E402
+from roughfriction.solver.linear import LinearSolveError, LinearSolver  # noqa: E402
 
 pytestmark = pytest.mark.fem
 
@@ -43,6 +40,6 @@ def test_cg_meeting_an_indefinite_operator_is_retried_with_gmres():
 
 
 def test_without_the_retry_the_same_solve_fails(monkeypatch):
-    monkeypatch.setattr("solver.linear.INDEFINITE", ())
+    monkeypatch.setattr("roughfriction.solver.linear.INDEFINITE", ())
     with pytest.raises(LinearSolveError, match="reason -8"):
         solve(shifted_laplacian())

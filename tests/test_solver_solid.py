@@ -1,22 +1,19 @@
 """The solid's forms: residual and tangent agree; periodic reduction is exact."""
 
+import dolfinx  # noqa: E402, F401  (an install without the FEM fails here)
 import numpy as np
 import pytest
-
-pytest.importorskip("dolfinx")
-
 from dolfinx.fem import petsc as fem_petsc  # noqa: E402
 from mpi4py import MPI  # noqa: E402
 from petsc4py import PETSc  # noqa: E402
-
-from geometry.mesh import (  # noqa: E402
+from roughfriction.geometry.mesh import (  # noqa: E402
     MeshOptions,
     build_block,
     interpolation_masters,
 )
-from solver.material import Material  # noqa: E402
-from solver.periodic import PeriodicReduction, dof_node_grid_index  # noqa: E402
-from solver.solid import Solid  # noqa: E402
+from roughfriction.material import Material  # noqa: E402
+from roughfriction.solver.periodic import PeriodicReduction, dof_node_grid_index  # noqa: E402
+from roughfriction.solver.solid import Solid  # noqa: E402
 
 pytestmark = pytest.mark.fem
 

@@ -10,20 +10,19 @@
 import math
 from dataclasses import replace
 
+import dolfinx  # noqa: E402, F401  (an install without the FEM fails here)
 import numpy as np
 import pytest
-
-pytest.importorskip("dolfinx")
-
 from mpi4py import MPI  # noqa: E402
-
-from geometry.generate import builtin_surface  # noqa: E402
-from geometry.mesh import MeshOptions  # noqa: E402
-from geometry.surface import Surface  # noqa: E402
-from solver.command import surface_on_fem_grid  # noqa: E402
-from solver.material import Material  # noqa: E402
-from solver.options import FemCase, Loading, SolverOptions  # noqa: E402
-from solver.run import run, run_loads  # noqa: E402
+from roughfriction.case import FemCase, Loading, SolverOptions  # noqa: E402
+from roughfriction.geometry.generate import builtin_surface  # noqa: E402
+from roughfriction.geometry.mesh import MeshOptions  # noqa: E402
+from roughfriction.geometry.surface import (
+    Surface,  # noqa: E402
+    surface_on_fem_grid,  # noqa: E402
+)
+from roughfriction.material import Material  # noqa: E402
+from roughfriction.solver.run import run, run_loads  # noqa: E402
 
 pytestmark = pytest.mark.fem
 

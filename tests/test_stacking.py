@@ -4,13 +4,12 @@ import math
 
 import numpy as np
 import pytest
-
-from geometry.errors import InputError
-from geometry.surface import Surface
-from multiscale.scales import Scales, scale_decomposition
-from multiscale.sinusoid import complete_contact_pressure, contact_area_per_cell
-from multiscale.stacking import normal_contact
-from solver.material import Material
+from roughfriction.errors import InputError
+from roughfriction.geometry.surface import Surface
+from roughfriction.material import Material
+from roughfriction.multiscale.scales import Scales, scale_decomposition
+from roughfriction.multiscale.sinusoid import complete_contact_pressure, contact_area_per_cell
+from roughfriction.multiscale.stacking import normal_contact
 
 MATERIAL = Material()
 LENGTH = 127e-6  # [m]

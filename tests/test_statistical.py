@@ -3,9 +3,8 @@
 import math
 
 import pytest
-
-from geometry.errors import InputError
-from multiscale.statistical import cke_friction, let_friction
+from roughfriction.errors import InputError
+from roughfriction.multiscale.statistical import cke_friction, let_friction
 
 
 @pytest.mark.parametrize("psi, expected", [(1.32, 0.6768), (3.33, 0.4339), (6.62, 0.3418)])

@@ -4,10 +4,9 @@ import math
 
 import numpy as np
 import pytest
-
-from geometry.errors import InputError
-from geometry.generate import builtin_surface, gaussian_surface
-from geometry.statistics import (
+from roughfriction.errors import InputError
+from roughfriction.geometry.generate import builtin_surface, gaussian_surface
+from roughfriction.geometry.statistics import (
     SurfaceStatistics,
     bandwidth_parameter,
     plasticity_index,
@@ -17,8 +16,8 @@ from geometry.statistics import (
     summit_radius,
     surface_statistics,
 )
-from geometry.surface import Surface
-from solver.material import Material
+from roughfriction.geometry.surface import Surface
+from roughfriction.material import Material
 
 PAPER = Material()
 H = 1e-6  # the paper's grid spacing: 128 points over 127 um

@@ -8,11 +8,10 @@ import types
 
 import numpy as np
 import pytest
-
-from geometry.surface import Surface
-from solver.options import FemCase, Loading, SolverOptions
-from solver.results import FemResult, StepRecord
-from solver.stress import (
+from roughfriction.case import FemCase, Loading, SolverOptions
+from roughfriction.geometry.surface import Surface
+from roughfriction.solver.results import FemResult, StepRecord
+from roughfriction.studies.stress import (
     ALONE,
     CUT,
     DIRECT,
@@ -88,7 +87,7 @@ class ScriptedEquilibrium:
             count=lambda flags: int(np.count_nonzero(flags)))
 
     def solve(self, normal_force, slide, friction):
-        from solver.equilibrium import NewtonReport
+        from roughfriction.solver.equilibrium import NewtonReport
 
         self.calls += 1
         contact = types.SimpleNamespace(fn=normal_force, slide=slide,
@@ -117,8 +116,7 @@ class ScriptedEquilibrium:
 
 @pytest.mark.fem
 def test_load_path_records_the_cuts_before_each_step_also_across_a_branch():
-    pytest.importorskip("dolfinx")  # solver.stepping imports the equilibrium module
-    from solver.stepping import LoadPath
+    from roughfriction.solver.stepping import LoadPath
 
     case = FemCase(Surface(np.zeros((4, 4)), SPACING, "flat"), Loading(0.5))
     equilibrium = ScriptedEquilibrium(failing={2, 3, 10, 13})
@@ -294,7 +292,6 @@ def test_tiny_stress_matrix_end_to_end(tmp_path):
     """A rough 8 x 8 surface at two loads (one group), penalty x10, a run stopped by its
     step limit, a surface whose mesh inverts, a measured surface that is missing: the runs
     converge, the rest fail loudly with their reasons, nothing fails silently."""
-    pytest.importorskip("dolfinx")
     from dataclasses import replace
 
     from mpi4py import MPI

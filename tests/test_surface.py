@@ -2,9 +2,8 @@
 
 import numpy as np
 import pytest
-
-from geometry.errors import InputError
-from geometry.surface import (
+from roughfriction.errors import InputError
+from roughfriction.geometry.surface import (
     Surface,
     crop_square,
     detrend_plane,

@@ -39,7 +39,7 @@ JUNCTION_SURFACE, JUNCTION_LOAD = "2L", 0.5
 def fem_resolution(n=None) -> int:
     """Surface cells per side of the FEM runs [-]: ``n``, else $ROUGHFRICTION_FEM_N, else
     :data:`DEFAULT_FEM_N`."""
-    from geometry.errors import InputError
+    from roughfriction.errors import InputError
 
     value = n if n is not None else os.environ.get(FEM_N_VARIABLE, DEFAULT_FEM_N)
     try:
@@ -54,8 +54,8 @@ def fem_resolution(n=None) -> int:
 def fem_case(name: str, load: float, n: int, normal_only: bool = False):
     """The FEM case of built-in surface ``name`` re-gridded to n x n, at F* = ``load`` [-],
     with the default material, mesh and solver options."""
-    from geometry.generate import builtin_surface
-    from solver.command import surface_on_fem_grid
-    from solver.options import FemCase, Loading
+    from roughfriction.case import FemCase, Loading
+    from roughfriction.geometry.generate import builtin_surface
+    from roughfriction.geometry.surface import surface_on_fem_grid
 
     return FemCase(surface_on_fem_grid(builtin_surface(name), n), Loading(load, normal_only))

@@ -19,17 +19,15 @@ mu_s is never reported from an unconverged state.
 from __future__ import annotations
 
 import argparse
-import os
 import sys
 import tomllib
 from dataclasses import fields
 from pathlib import Path
 
-from geometry.errors import InputError
-from geometry.mesh import MeshOptions
-from geometry.surface import Surface, resample, spectral_interpolate
-from solver.material import Material
-from solver.options import FemCase, Loading, SolverOptions
+from roughfriction.case import FemCase, Loading, MeshOptions, SolverOptions
+from roughfriction.errors import InputError
+from roughfriction.geometry.surface import Surface, surface_on_fem_grid
+from roughfriction.material import Material
 
 CONFIG_TABLES = {"mesh": MeshOptions, "solver": SolverOptions, "material": Material}
 CONFIG_KEYS = {"load", "n", "elastic", "normal_only"}
@@ -73,15 +71,6 @@ def read_config(path: str | None) -> dict:
     return config
 
 
-def surface_on_fem_grid(surface: Surface, n: int | None) -> Surface:
-    """The surface on N x N points: as is, resampled (coarser) or Fourier-interpolated (finer)."""
-    if n is None or n == surface.n:
-        return surface
-    if n < 4:
-        raise InputError(f"--n must be >= 4 surface cells per side, got {n}")
-    return resample(surface, n) if n < surface.n else spectral_interpolate(surface, n)
-
-
 def case_from_args(args, surface: Surface) -> FemCase:
     """Build the FemCase from flags over the case file."""
     config = read_config(args.config)
@@ -116,44 +105,6 @@ def default_output(case: FemCase) -> Path:
     return Path("results/fem") / f"{name}_F{case.loading.load_star:g}_N{case.surface.n}{suffix}.h5"
 
 
-def save_run(path: Path, case: FemCase, fem_run, comm, note: str = "") -> None:
-    """Write a run's results file (rank 0 writes, atomically; every rank waits for it).
-
-    The file holds the case's inputs, the records and summary, and the surface maps of the
-    run plus ``surface_heights``, the N x N heights of the FEM grid [m] (for the interference
-    and for drawing maps over the topography), and the root attribute ``note`` if given.
-
-    Parameters
-    ----------
-    path : pathlib.Path
-        Destination HDF5 file.
-    case : FemCase
-        The case that was run.
-    fem_run : solver.run.FemRun
-        Its outcome.
-    comm : mpi4py.MPI.Comm
-        The communicator the run used; call on every rank.
-    note : str
-        How the run was obtained, if not the usual way (e.g. on a standalone path after its
-        shared normal path failed, see :mod:`solver.cache`).
-    """
-    from solver.results import write_hdf5
-
-    if comm.rank == 0:
-        path = Path(path)
-        maps = {"surface_heights": case.surface.heights, **fem_run.maps}
-        # with a note: written in full under a staging name, then renamed (still atomic)
-        staging = path.with_name(f".{path.name}.noted") if note else path
-        write_hdf5(staging, case.inputs(), fem_run.result, maps)
-        if note:
-            import h5py
-
-            with h5py.File(staging, "a") as h5:
-                h5.attrs["note"] = note
-            os.replace(staging, path)
-    comm.barrier()
-
-
 def run_fem(args) -> dict:
     """Run the FEM case named by the command line; return the JSON summary.
 
@@ -164,9 +115,9 @@ def run_fem(args) -> dict:
         results).
     """
     from mpi4py import MPI
-
-    from scripts.cli import surface_from_args
-    from solver.run import run
+    from roughfriction.scripts.cli import surface_from_args
+    from roughfriction.solver.results import save_run
+    from roughfriction.solver.run import run
 
     comm = MPI.COMM_WORLD
     case = case_from_args(args, surface_from_args(args))
@@ -181,7 +132,7 @@ def run_fem(args) -> dict:
 
 def main(argv: list[str] | None = None) -> int:
     """``python -m solver.command ARGS``: the same as ``roughfriction fem ARGS``."""
-    from scripts.cli import main as cli_main
+    from roughfriction.scripts.cli import main as cli_main
 
     return cli_main(["fem", *(sys.argv[1:] if argv is None else argv)])
 

@@ -15,9 +15,8 @@ from dataclasses import dataclass, fields
 from pathlib import Path
 
 import numpy as np
-
-from geometry.errors import InputError
-from solver.results import StepRecord
+from roughfriction.errors import InputError
+from roughfriction.solver.results import StepRecord
 
 #: Root attributes every results file has.
 REQUIRED_ATTRIBUTES = ("inputs", "summary", "converged", "message")
@@ -275,7 +274,7 @@ def map_summary(name: str, values: np.ndarray) -> dict:
     nodes per patch. Pressures and shear [Pa]: max and mean over the nonzero nodes. Heights
     [m]: min and max.
     """
-    from solver.results import count_patches
+    from roughfriction.solver.results import count_patches
 
     values = np.asarray(values)
     if values.dtype == bool:

@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from geometry.errors import InputError
+from roughfriction.errors import InputError
 
 
 @dataclass(frozen=True)

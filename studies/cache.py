@@ -25,9 +25,9 @@ Imports without dolfinx; the FEM stack is imported when a run is computed.
 
 from __future__ import annotations
 
-import argparse
 import ast
 import hashlib
+import importlib.util
 import json
 import os
 import re
@@ -37,16 +37,25 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
 
-from solver.options import FemCase, Loading
+from roughfriction.case import FemCase, Loading
 
-ROOT = Path(__file__).resolve().parent.parent
 #: Environment variable naming the cache directory (default ``results/runs``).
 RUNS_VARIABLE = "ROUGHFRICTION_RUNS"
 DEFAULT_RUNS = Path("results/runs")
-#: Modules of ``solver/`` that do not change results (command line, cache, reading, timing,
-#: the run-time-vs-error benchmark and the stress matrix).
-NOT_PHYSICS = ("batch.py", "benchmark.py", "cache.py", "command.py", "convergence.py", "post.py",
-               "stress.py")
+#: The modules whose code determines an FEM result. Declared, not inferred: output, progress,
+#: reading and study code change freely without discarding runs. Every module of the solver
+#: package is either here or in :data:`SOLVER_OUTPUT_MODULES` (a test checks it), so that a new
+#: module is classified before it lands.
+PHYSICS_MODULES = (
+    "roughfriction.material", "roughfriction.case", "roughfriction.geometry.surface",
+    "roughfriction.geometry.mesh", "roughfriction.solver.contact",
+    "roughfriction.solver.equilibrium", "roughfriction.solver.linear",
+    "roughfriction.solver.periodic", "roughfriction.solver.plasticity",
+    "roughfriction.solver.solid", "roughfriction.solver.stepping", "roughfriction.solver.run",
+    "roughfriction.solver.results",
+)
+#: Modules of the solver package that do not change results (field output, progress).
+SOLVER_OUTPUT_MODULES = ("roughfriction.solver", "roughfriction.solver.fields")
 #: Layout version of an entry (bumped when what an entry holds changes).
 ENTRY_FORMAT = 1
 
@@ -57,12 +66,15 @@ STEP_LINE = re.compile(r"\s*(?P<phase>\w+)\s+Fn=(?P<fn>\S+) N Ft=(?P<ft>\S+) N .
 # --- keys ------------------------------------------------------------------------------------
 
 
-def physics_files(root: Path = ROOT) -> list[Path]:
-    """The source files that determine FEM results: ``solver/*.py`` except :data:`NOT_PHYSICS`,
-    ``geometry/mesh.py`` and ``geometry/surface.py``."""
-    solver = sorted(path for path in (Path(root) / "solver").glob("*.py")
-                    if path.name not in NOT_PHYSICS)
-    return solver + [Path(root) / "geometry" / "mesh.py", Path(root) / "geometry" / "surface.py"]
+def physics_sources() -> dict[str, Path]:
+    """The source file of each of :data:`PHYSICS_MODULES` (located through their packages,
+    without importing them)."""
+    sources = {}
+    for name in PHYSICS_MODULES:
+        package, _, module = name.rpartition(".")
+        folder = importlib.util.find_spec(package).submodule_search_locations[0]
+        sources[name] = Path(folder) / f"{module}.py"
+    return sources
 
 
 def code_without_documentation(source: str) -> str:
@@ -78,13 +90,14 @@ def code_without_documentation(source: str) -> str:
     return ast.dump(tree)
 
 
-def physics_version(root: Path = ROOT) -> str:
-    """SHA-256 of the names and code (:func:`code_without_documentation`) of
-    :func:`physics_files` (from the files, not git)."""
+def physics_version(sources: dict[str, Path] | None = None) -> str:
+    """SHA-256 of the names and code (:func:`code_without_documentation`) of the physics
+    modules (``sources``: module name -> file, default :func:`physics_sources`; read from the
+    files, not git)."""
     digest = hashlib.sha256()
-    for path in physics_files(root):
-        code = code_without_documentation(path.read_text()).encode()
-        digest.update(f"{path.relative_to(root).as_posix()}\0{len(code)}\0".encode())
+    for name, path in sorted((sources or physics_sources()).items()):
+        code = code_without_documentation(Path(path).read_text()).encode()
+        digest.update(f"{name}\0{len(code)}\0".encode())
         digest.update(code)
     return digest.hexdigest()
 
@@ -268,7 +281,7 @@ def runs_table(rows: Sequence[dict]) -> list[str]:
 
 
 def _table_rows(cases, paths, computed) -> list[dict]:
-    from solver.post import read_run
+    from roughfriction.studies.post import read_run
 
     rows = []
     for case, path in zip(cases, paths, strict=True):
@@ -346,8 +359,8 @@ def _compute_group(group: RunGroup, comm, reporter: RunReporter) -> None:
     """Run one group, writing each entry as soon as its run ends; then free its PETSc objects
     (:func:`release_petsc_objects`). A run past the first that failed on the shared normal path
     is run again alone (:func:`_compute_alone`)."""
-    from solver.command import save_run
-    from solver.run import run_loads
+    from roughfriction.solver.results import save_run
+    from roughfriction.solver.run import run_loads
 
     def finished(index, fem_run):
         save_run(group.paths[index], group.cases[index], fem_run, comm)
@@ -375,8 +388,8 @@ def _compute_alone(case: FemCase, path: Path, message: str, comm,
     its sliding stalled at u_x = 1.01e-6 m with one node cycling between stick and slip on the
     shared path; alone it converges, mu_s 0.6711).
     """
-    from solver.command import save_run
-    from solver.run import run_loads
+    from roughfriction.solver.results import save_run
+    from roughfriction.solver.run import run_loads
 
     note = f"computed alone: on the shared normal path it failed ({message})"
 
@@ -419,43 +432,7 @@ def release_petsc_objects(root) -> int:
             pending.extend(item)
         elif isinstance(item, dict):
             pending.extend(item.values())
-        elif type(item).__module__.split(".")[0] in ("solver", "geometry") and hasattr(
+        elif type(item).__module__.startswith("roughfriction.") and hasattr(
                 item, "__dict__"):
             pending.extend(vars(item).values())
     return destroyed
-
-
-# --- command line ----------------------------------------------------------------------------
-
-
-def main(argv: list[str] | None = None) -> int:
-    """``python -m solver.cache SURFACE --load F [F ...] --n N``: fill the cache."""
-    from geometry.errors import InputError
-    from scripts.cli import EXIT_INPUT_ERROR, add_surface_arguments, is_root_rank, surface_from_args
-    from solver.command import surface_on_fem_grid
-
-    parser = argparse.ArgumentParser(prog="python -m solver.cache",
-                                     description="Compute the runs missing from the run cache "
-                                     "and print their results files.")
-    add_surface_arguments(parser)
-    parser.add_argument("--load", type=float, nargs="+", required=True, metavar="FSTAR")
-    parser.add_argument("--n", type=int, metavar="N", help="surface cells per side")
-    parser.add_argument("--normal-only", action="store_true", help="preload only")
-    parser.add_argument("--directory", help=f"cache directory (default ${RUNS_VARIABLE} or "
-                        f"{DEFAULT_RUNS})")
-    args = parser.parse_args(argv)
-    try:
-        surface = surface_on_fem_grid(surface_from_args(args), args.n)
-        cases = [FemCase(surface, Loading(load, args.normal_only)) for load in args.load]
-        paths = cached_results(cases, directory=args.directory)
-    except InputError as error:
-        if is_root_rank():
-            print(f"roughfriction: error: {error}", file=sys.stderr)
-        return EXIT_INPUT_ERROR
-    if is_root_rank():
-        print("\n".join(str(path) for path in paths))
-    return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())

@@ -34,27 +34,23 @@ every sliding case.
 
 from __future__ import annotations
 
-import argparse
 import math
-import sys
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
-
-from geometry.surface import Surface
-from solver.batch import (
-    BENCH_DIR,
-    batch_plan,
+from roughfriction.case import FemCase, Loading, SolverOptions
+from roughfriction.files import atomic_write
+from roughfriction.geometry.surface import Surface
+from roughfriction.material import Material
+from roughfriction.studies.batch import (
     cached_batch,
     compute_batch,
     csv_text,
     summary_columns,
     write_text,
 )
-from solver.material import Material
-from solver.options import FemCase, Loading, SolverOptions
 
 # --- what is run -----------------------------------------------------------------------------
 
@@ -198,9 +194,8 @@ def sinusoid_surface(n: int) -> Surface:
 def case_surface(case: ErrorCase, variant: Variant) -> Surface:
     """The surface of a run on its FEM grid: the sinusoid; a built-in surface re-gridded as
     ``--n`` does; for "spectral" re-gridded to the coarse grid, then Fourier-interpolated."""
-    from geometry.generate import builtin_surface
-    from geometry.surface import spectral_interpolate
-    from solver.command import surface_on_fem_grid
+    from roughfriction.geometry.generate import builtin_surface
+    from roughfriction.geometry.surface import spectral_interpolate, surface_on_fem_grid
 
     if case.analytic:
         return sinusoid_surface(variant.n)
@@ -471,9 +466,7 @@ def plot_error(rows: Sequence[dict], path: Path) -> None:
         ax.legend(fontsize=6)
     for ax in axes.flat[len(cases):]:
         ax.set_visible(False)
-    from scripts.figures import _atomic_write
-
-    _atomic_write(Path(path), lambda temporary: fig.savefig(temporary, dpi=110, format="png"))
+    atomic_write(Path(path), lambda temporary: fig.savefig(temporary, dpi=110, format="png"))
     plt.close(fig)
 
 
@@ -486,41 +479,12 @@ def mark_defaults(rows: list[dict], chosen: int) -> None:
 # --- command line ----------------------------------------------------------------------------
 
 
-def parse_args(argv):
-    parser = argparse.ArgumentParser(prog="python -m solver.convergence", description=__doc__,
-                                     formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--quick", action="store_true",
-                        help=f"sizes {QUICK_SIZES}, knobs at N = {QUICK_BASE_N}; output to "
-                        f"{BENCH_DIR / 'quick'}")
-    parser.add_argument("--sizes", type=int, nargs="+", metavar="N",
-                        help=f"resolutions of the sweep (default {SIZES})")
-    parser.add_argument("--base-n", type=int, metavar="N",
-                        help=f"resolution of the knob variants (default {BASE_N})")
-    parser.add_argument("--output", metavar="DIR", help="where error.csv and error.png go")
-    parser.add_argument("--runs", metavar="DIR", help="run cache directory")
-    parser.add_argument("--plan", action="store_true",
-                        help="print the runs per N (cached, to compute) and exit")
-    parser.add_argument("--report", action="store_true",
-                        help="write the tables and plot from the runs already in the cache, "
-                        "computing nothing (the others are marked as not computed)")
-    return parser.parse_args(argv)
-
-
-def plan_from_args(args) -> tuple[ErrorPlan, Path]:
-    """The plan and output directory of the command line."""
-    sizes, base_n, output = SIZES, BASE_N, BENCH_DIR
-    if args.quick:
-        sizes, base_n, output = QUICK_SIZES, QUICK_BASE_N, BENCH_DIR / "quick"
-    plan = ErrorPlan(sizes=tuple(args.sizes or sizes), base_n=args.base_n or base_n)
-    return plan, Path(args.output) if args.output else output
-
-
 def run_benchmark(plan: ErrorPlan, output: Path, comm, runs_directory=None,
                   progress=None, compute: bool = True) -> list[dict] | None:
     """Compute (every rank) and write (rank 0) the benchmark; the rows on rank 0, else None.
     With ``compute`` False nothing is computed: the tables are written from the runs in the
     cache, the others reported as not computed."""
-    from solver.post import read_run
+    from roughfriction.studies.post import read_run
 
     runs = benchmark_runs(plan)
     cases = [fem for _, _, fem in runs]
@@ -546,20 +510,3 @@ def run_benchmark(plan: ErrorPlan, output: Path, comm, runs_directory=None,
         print(f"(the defaults at the base N = {plan.base_n} are marked instead)", flush=True)
     print(f"wrote {output / 'error.csv'} and {output / 'error.png'}", flush=True)
     return rows
-
-
-def main(argv: list[str] | None = None) -> int:
-    args = parse_args(argv)
-    plan, output = plan_from_args(args)
-    if args.plan:
-        runs = benchmark_runs(plan)
-        print("\n".join(batch_plan([fem for _, _, fem in runs], args.runs)))
-        return 0
-    from mpi4py import MPI
-
-    run_benchmark(plan, output, MPI.COMM_WORLD, args.runs, compute=not args.report)
-    return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())

@@ -20,8 +20,10 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-from geometry.errors import InputError
-from solver.cache import (
+from roughfriction.case import FemCase
+from roughfriction.errors import InputError
+from roughfriction.files import atomic_write
+from roughfriction.studies.cache import (
     cached_results,
     finished_entry,
     group_key,
@@ -29,7 +31,6 @@ from solver.cache import (
     run_key,
     runs_directory,
 )
-from solver.options import FemCase
 
 #: Where the benchmark tables and plots go.
 BENCH_DIR = Path("results/bench")
@@ -189,6 +190,4 @@ def csv_text(rows: Sequence[dict], columns: Sequence[str]) -> str:
 
 def write_text(path: Path, text: str) -> None:
     """Write a file atomically (temporary name, then rename)."""
-    from scripts.figures import _atomic_write
-
-    _atomic_write(Path(path), lambda temporary: Path(temporary).write_text(text))
+    atomic_write(Path(path), lambda temporary: Path(temporary).write_text(text))

@@ -1,18 +1,68 @@
-"""The FEM case: what is computed (Loading) and how (SolverOptions), with the surface, material
-and mesh options in one frozen ``FemCase`` that flows from the command line to the results."""
+"""The FEM case: what is computed (Loading) and how (MeshOptions, SolverOptions), with the surface
+and material in one frozen ``FemCase`` that flows from the command line to the results.
+
+Plain data and checks only (no NumPy, no FEM): every layer of the package can import it."""
 
 from __future__ import annotations
 
 import math
 from dataclasses import asdict, dataclass, field
+from typing import TYPE_CHECKING
 
-from geometry.errors import InputError
-from geometry.mesh import MeshOptions
-from geometry.surface import Surface
-from solver.material import Material
+from roughfriction.errors import InputError
+from roughfriction.material import Material
+
+if TYPE_CHECKING:  # the case holds a surface; the core does not import the geometry layer
+    from roughfriction.geometry.surface import Surface
 
 LINEAR_SOLVERS = ("auto", "direct", "iterative")
 INTEGRATIONS = ("selective", "full")
+
+
+@dataclass(frozen=True)
+class MeshOptions:
+    """How the block under the surface is layered.
+
+    Parameters
+    ----------
+    blend_layers : int
+        Layers of thickness h (the grid spacing) over which the roughness fades to flat [-].
+    fine_layers : int
+        Layers at the full lateral resolution (thickness h) from the surface down, blend layers
+        included [-]; ``blend_layers`` if smaller. 4 against 6 (measured): N = 32, F* = 0.93,
+        run time -38 %, mu_s -0.10 % (G5) and +0.0005 % (8L); G5 at N = 128, F* = 0.155:
+        1196 s -> 654 s, mu_s 0.40937 -> 0.40955 (+0.04 %).
+    coarsen : bool
+        Below the fine layers, halve the lateral resolution level by level (2:1, hanging nodes
+        tied exactly), while N stays divisible and at least 2 cells per side remain.
+    growth : float
+        Thickness ratio of successive layers going down where the lateral size no longer
+        changes (no coarsening, or the coarsest level reached) [-], >= 1.
+    depth : float
+        Minimum block depth below the mean surface plane, in periods (N h) [-]. A surface
+        wavelength lambda decays like exp(-2 pi z / lambda): at one period the longest one is down
+        to exp(-2 pi) ~ 0.2 %.
+    """
+
+    blend_layers: int = 4
+    fine_layers: int = 4
+    coarsen: bool = True
+    growth: float = 1.4
+    depth: float = 1.0
+
+    def __post_init__(self):
+        for name in ("blend_layers", "fine_layers"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or int(value) != value:
+                raise InputError(f"{name} must be an integer, got {value!r}")
+            if value < 1:
+                raise InputError(f"{name} must be >= 1, got {value}")
+        if not isinstance(self.coarsen, bool):
+            raise InputError(f"coarsen must be true or false, got {self.coarsen!r}")
+        if not (math.isfinite(self.growth) and 1.0 <= self.growth <= 3.0):
+            raise InputError(f"layer growth ratio must lie in [1, 3], got {self.growth}")
+        if not (math.isfinite(self.depth) and self.depth > 0):
+            raise InputError(f"block depth must be > 0 periods, got {self.depth}")
 
 
 @dataclass(frozen=True)

@@ -11,7 +11,6 @@ full record goes to ``results/bench/fem_G5_N<N>_<ranks>ranks.h5``.
 
 from __future__ import annotations
 
-import argparse
 import csv
 import json
 import subprocess
@@ -23,6 +22,7 @@ import numpy as np
 
 BENCH_DIR = Path("results/bench")
 SURFACE, LOAD = "G5", 0.155
+DEFAULT_SIZES = (32, 64, 128)
 COLUMNS = ("n", "ranks", "cells", "reduced_dofs", "linear_solver", "wall_s", "peak_memory_gb",
            "steps", "newton_iterations", "mu_s", "converged")
 
@@ -31,7 +31,7 @@ def run_size(n: int, ranks: int) -> dict:
     """Run one grid size through ``python -m solver.command`` under mpirun; return its row."""
     output = BENCH_DIR / f"fem_{SURFACE}_N{n}_{ranks}ranks.h5"
     command = ["mpirun", "-n", str(ranks), "--oversubscribe", sys.executable, "-m",
-               "solver.command", SURFACE, "--load", str(LOAD), "--n", str(n), "--json",
+               "roughfriction.scripts.fem", SURFACE, "--load", str(LOAD), "--n", str(n), "--json",
                "--output", str(output)]
     output.unlink(missing_ok=True)
     finished = subprocess.run(command, stdout=subprocess.DEVNULL)  # progress, errors: stderr
@@ -77,18 +77,3 @@ def benchmark_sizes(sizes: list[int], ranks: int) -> list[dict]:
         write_csv([kept[key] for key in sorted(kept)], table)
         print(json.dumps(rows[-1]), file=sys.stderr, flush=True)
     return rows
-
-
-def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m solver.benchmark", description=__doc__,
-                                     formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--n", type=int, nargs="+", default=[32, 64, 128],
-                        help="surface cells per side (default 32 64 128)")
-    parser.add_argument("--ranks", type=int, default=2, help="MPI ranks (default 2)")
-    args = parser.parse_args(argv)
-    benchmark_sizes(args.n, args.ranks)
-    return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())

@@ -34,20 +34,23 @@ failures with their messages and the reliable region).
 
 from __future__ import annotations
 
-import argparse
 import math
 import os
-import sys
 from collections import Counter
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
 
-from geometry.errors import InputError
-from geometry.surface import Surface
-from solver.batch import BENCH_DIR, batch_plan, compute_batch, csv_text, summary_columns, write_text
-from solver.options import FemCase, Loading
-from solver.results import RELIABLE_NODES_PER_PATCH
+from roughfriction.case import FemCase, Loading
+from roughfriction.errors import InputError
+from roughfriction.geometry.surface import Surface
+from roughfriction.solver.results import RELIABLE_NODES_PER_PATCH
+from roughfriction.studies.batch import (
+    compute_batch,
+    csv_text,
+    summary_columns,
+    write_text,
+)
 
 # --- what is run -----------------------------------------------------------------------------
 
@@ -138,8 +141,8 @@ def option_runs(kind: str, case: FemCase, loads: Sequence[float],
 def measured_surface(n: int) -> tuple[Surface | None, str]:
     """:data:`MEASURED_SURFACE` on the n x n FEM grid (bicubic resampling), or None and why
     not."""
-    from geometry.readers import read_surface
-    from solver.command import surface_on_fem_grid
+    from roughfriction.geometry.readers import read_surface
+    from roughfriction.geometry.surface import surface_on_fem_grid
 
     path = surface_data_directory() / MEASURED_SURFACE
     try:
@@ -150,9 +153,9 @@ def measured_surface(n: int) -> tuple[Surface | None, str]:
 
 def default_runs(n: int) -> list[StressRun]:
     """The runs of the tables above on an n x n grid."""
-    from geometry.generate import builtin_surface
-    from scripts.cases import fem_case
-    from solver.command import surface_on_fem_grid
+    from roughfriction.geometry.generate import builtin_surface
+    from roughfriction.geometry.surface import surface_on_fem_grid
+    from roughfriction.studies.paper import fem_case
 
     runs = []
     for name in MATRIX_SURFACES:
@@ -181,7 +184,7 @@ def run_facts(run) -> dict:
         step) and ``force_error`` (F_n of the last step over its target - 1 [-]; None without
         steps).
     """
-    from solver.post import target_normal_force
+    from roughfriction.studies.post import target_normal_force
 
     facts = summary_columns(run)
     steps = run.steps
@@ -375,7 +378,7 @@ def run_stress(runs: Sequence[StressRun], n: int, loads: Sequence[float], output
                runs_directory=None, progress=None) -> list[dict] | None:
     """Compute (every rank) and write (rank 0) the stress test; the rows on rank 0, else
     None."""
-    from solver.post import read_run
+    from roughfriction.studies.post import read_run
 
     ready = [run for run in runs if run.case is not None]
     results = iter(compute_batch([run.case for run in ready], comm, runs_directory, progress))
@@ -396,38 +399,3 @@ def run_stress(runs: Sequence[StressRun], n: int, loads: Sequence[float], output
     print("; ".join(f"{outcome}: {counts[outcome]}" for outcome in OUTCOMES), flush=True)
     print(f"wrote {output / 'stress.csv'} and {output / 'stress.md'}", flush=True)
     return rows
-
-
-def main(argv: list[str] | None = None) -> int:
-    from scripts.cases import DEFAULT_FEM_N
-
-    parser = argparse.ArgumentParser(prog="python -m solver.stress", description=__doc__,
-                                     formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--n", type=int, default=DEFAULT_FEM_N,
-                        help=f"surface cells per side (default {DEFAULT_FEM_N})")
-    parser.add_argument("--output", metavar="DIR", default=str(BENCH_DIR),
-                        help=f"where stress.csv and stress.md go (default {BENCH_DIR})")
-    parser.add_argument("--runs", metavar="DIR", help="run cache directory")
-    parser.add_argument("--plan", action="store_true",
-                        help="print the runs per N (cached, to compute) and exit")
-    args = parser.parse_args(argv)
-    runs = default_runs(args.n)
-    if args.plan:
-        print("\n".join(batch_plan([run.case for run in runs if run.case], args.runs)))
-        for run in runs:
-            if run.case is None:
-                print(f"not run: {run.surface} F*={run.load_star:g}: {run.error}")
-        return 0
-    from mpi4py import MPI
-
-    comm = MPI.COMM_WORLD
-    rows = run_stress(runs, args.n, MATRIX_LOADS, Path(args.output), comm, args.runs)
-    silent = comm.bcast(None if rows is None else outcome_counts(rows)[SILENT], root=0)
-    if silent and comm.rank == 0:
-        print(f"{silent} SILENT FAILURE(S): see the problems column of stress.csv",
-              file=sys.stderr)
-    return 1 if silent else 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())
