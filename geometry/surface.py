@@ -298,3 +298,39 @@ def validate_grid_points(n) -> int:
     if isinstance(n, bool) or not isinstance(n, int | np.integer) or n < 4:
         raise InputError(f"number of grid points per side must be an integer >= 4, got {n!r}")
     return int(n)
+
+
+def bilinear_refine(heights, factor: int) -> np.ndarray:
+    """The periodic bilinear interpolant of a height grid, sampled ``factor`` times finer.
+
+    The FEM resolves a surface as the bilinear interpolant through its grid points (the top
+    faces of its hexahedra); sampling that interpolant on a finer grid gives a finer mesh of the
+    same surface. Points (i, j) of the result lie at x = i h / factor, y = j h / factor.
+
+    Parameters
+    ----------
+    heights : numpy.ndarray
+        Heights [m], shape (n, n), one period of a periodic surface.
+    factor : int
+        Refinement factor [-], >= 1.
+
+    Returns
+    -------
+    numpy.ndarray
+        Heights [m], shape (factor n, factor n); every factor-th point is an original one.
+    """
+    z = _as_grid(heights)
+    if isinstance(factor, bool) or not isinstance(factor, int | np.integer) or factor < 1:
+        raise InputError(f"refinement factor must be an integer >= 1, got {factor!r}")
+    t = np.arange(factor) / factor  # position inside a cell [-]
+    for axis in (0, 1):
+        following = np.roll(z, -1, axis=axis)
+        shape = [1, 1, 1]
+        shape[axis + 1] = factor
+        # insert factor points per cell along the axis: (1 - t) z_i + t z_{i+1}
+        expanded = (np.expand_dims(z, axis + 1) * (1.0 - t).reshape(shape)
+                    + np.expand_dims(following, axis + 1) * t.reshape(shape))
+        new_shape = list(z.shape)
+        new_shape[axis] *= factor
+        z = expanded.reshape(new_shape)
+    return z
