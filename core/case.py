@@ -104,6 +104,9 @@ class SolverOptions:
         The shear cap tau_c min(1, p / p_r) rises with the contact pressure p up to
         p_r = friction_ramp S_y [-]; 0 gives the paper's pure cap tau_c, with which a node at a
         patch edge can have no consistent contact state (see :mod:`solver.contact`).
+    contact_points : int
+        Gauss points per side of each surface face where gap, pressure and friction are
+        evaluated (n x n per face) [-].
     penetration_tolerance : float
         Augmented Lagrangian: Uzawa updates until no contact node penetrates deeper than this
         times the grid spacing [-].
@@ -137,9 +140,10 @@ class SolverOptions:
 
     elastic: bool = False
     integration: str = "selective"
-    penalty: float = 10.0
+    penalty: float = 40.0
     tangential_penalty: float = 0.1
     friction_ramp: float = 0.01
+    contact_points: int = 2
     penetration_tolerance: float = 1e-4
     max_augmentations: int = 10
     linear_solver: str = "auto"
@@ -163,7 +167,8 @@ class SolverOptions:
         for name, value in ((name, getattr(self, name)) for name in positive):
             if not (math.isfinite(value) and value > 0):
                 raise InputError(f"solver option {name} must be > 0, got {value}")
-        for name in ("direct_limit", "max_iterations", "normal_increments", "max_steps"):
+        for name in ("direct_limit", "max_iterations", "normal_increments", "max_steps",
+                     "contact_points"):
             if getattr(self, name) < 1:
                 raise InputError(f"solver option {name} must be >= 1, got {getattr(self, name)}")
         if not (math.isfinite(self.friction_ramp) and 0.0 <= self.friction_ramp < 1.0):

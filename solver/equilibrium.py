@@ -8,12 +8,12 @@ Each Newton iteration solves the bordered system
     [ c^T  d ] [dh] = - [r]
 
 with one operator: K x1 = -R, K x2 = -b, dh = -(r + c.x1) / (c.x2 + d), du = x1 + dh x2
-(c = -b on the z rows; b also has x-y entries where a slipping node's shear cap follows its
+(c = -b on the z rows; b also has x-y entries where a slipping point's shear cap follows its
 pressure, see :mod:`solver.contact`).
 A Newton solve is converged when ||R|| <= tol_R F_n, |r| <= tol_R F_n and the last
 max |du| <= tol_u h; a backtracking line search on ||R||^2 + r^2 damps contact overshoot, and a
 solve whose residual stops halving is abandoned (the step is then cut). A load step is converged
-when, after Uzawa updates of the contact multipliers, no contact node penetrates deeper than
+when, after Uzawa updates of the contact multipliers, no contact point penetrates deeper than
 tol_g h.
 """
 
@@ -27,7 +27,7 @@ from dolfinx.fem import petsc as fem_petsc
 from mpi4py import MPI
 from petsc4py import PETSc
 from roughfriction.case import SolverOptions
-from roughfriction.solver.contact import ContactResponse, RigidFlat
+from roughfriction.solver.contact import NEIGHBOURS, ContactResponse, RigidFlat
 from roughfriction.solver.linear import LinearSolveError, LinearSolver
 from roughfriction.solver.periodic import PeriodicReduction
 from roughfriction.solver.solid import Solid
@@ -154,10 +154,17 @@ class Equilibrium:
         self._near_nullspace = (reduction.near_nullspace(solid.V.tabulate_dof_coordinates())
                                 if method == "iterative" else None)
 
-        self._active = None  # frozen contact set of the surface nodes, or None
-        # Reduced rows of the contact nodes (owned masters: their reduced dofs are local).
-        reduced_nodes = reduction.reduced_node[flat.nodes]
-        self._contact_rows = (3 * reduced_nodes[:, None] + np.arange(3)).astype(PETSc.IntType)
+        self._active = None  # frozen contact set of the integration points, or None
+        # Reduced rows of the owned surface nodes and the reduced nodes of their 9 neighbours
+        # on the periodic surface grid (the columns of the contact tangent).
+        n = flat.grid_size
+        node_reduced = flat.gather_nodes(reduction.reduced_node[flat.nodes])
+        i, j = np.divmod(flat.owned_grid, n)
+        neighbours = (((i[:, None] + NEIGHBOURS[:, 0]) % n) * n
+                      + (j[:, None] + NEIGHBOURS[:, 1]) % n)
+        self._contact_rows = (3 * node_reduced[flat.owned_grid][:, None]
+                              + np.arange(3)).astype(PETSc.IntType)
+        self._contact_columns = node_reduced[neighbours].astype(PETSc.IntType)
 
     # --- assembly -------------------------------------------------------------------------
 
@@ -180,21 +187,23 @@ class Equilibrium:
         contact = self.flat.respond(solid.displacement.x.array.reshape(-1, 3),
                                     self.flat_height, flat_slide, friction, predictor,
                                     self._active)
-        self.residual.setValues(self._contact_rows.ravel(), contact.force.ravel(),
+        owned = self.flat.owned_grid
+        self.residual.setValues(self._contact_rows.ravel(), contact.node_force[owned].ravel(),
                                 addv=PETSc.InsertMode.ADD_VALUES)
         self.residual.assemble()
         self._height_column.set(0.0)
-        self._height_column.setValues(self._contact_rows.ravel(),
-                                      contact.height_derivative.ravel())
+        height_derivative = contact.node_height_derivative[owned]
+        self._height_column.setValues(self._contact_rows.ravel(), height_derivative.ravel())
         self._height_column.assemble()
         self._force_row.set(0.0)  # r = sum p a - F_n: dr/du_z = eps a = -dR_z/dh
-        self._force_row.setValues(self._contact_rows[:, 2], -contact.height_derivative[:, 2])
+        self._force_row.setValues(self._contact_rows[:, 2], -height_derivative[:, 2])
         self._force_row.assemble()
         return contact
 
     def assemble_tangent(self, contact: ContactResponse) -> None:
-        """K = P^T (K_elastic + K_plastic) P plus the contact's nodal 3 x 3 blocks, at the
-        iterate of the last :meth:`assemble` (whose ``contact`` response is passed).
+        """K = P^T (K_elastic + K_plastic) P plus the contact's 3 x 3 blocks of each surface node
+        and its 9 neighbours, at the iterate of the last :meth:`assemble` (whose ``contact``
+        response is passed).
 
         (MatAXPY of a separate block-diagonal contact matrix was measured to leak ~0.6 MB per
         call with PETSc 3.18; the blocks are set in place instead.)
@@ -208,8 +217,10 @@ class Equilibrium:
         self.tangent = self.reduction.reduce_matrix(self._tangent_full, self.tangent)
         if self._near_nullspace is not None:
             self.tangent.setNearNullSpace(self._near_nullspace)
-        block_rows = self._contact_rows[:, :1] // 3
-        self.tangent.setValuesBlockedRCV(block_rows, block_rows, contact.stiffness.reshape(-1, 9),
+        # one block row (3 x 27 values, row-major) per owned surface node
+        blocks = contact.node_stiffness[self.flat.owned_grid].transpose(0, 2, 1, 3)
+        self.tangent.setValuesBlockedRCV(self._contact_rows[:, :1] // 3, self._contact_columns,
+                                         blocks.reshape(len(blocks), -1),
                                          addv=PETSc.InsertMode.ADD_VALUES)
         self.tangent.assemble()
         self._symmetric = self.comm.allreduce(contact.symmetric, op=MPI.LAND)

@@ -2,7 +2,7 @@
 preload (t = 0) and at sliding inception (t = 1).
 
 Fields: displacement [m] (P1 vector); von Mises stress [Pa] and equivalent plastic strain [-]
-(cell averages over the Gauss points, DG0); contact pressure [Pa], shear traction magnitude [Pa]
+(cell averages over the Gauss points, DG0); contact pressure [Pa], x shear traction [Pa]
 and contact state (0 open, 1 stick, 2 slip) on the surface nodes (P1 scalars, zero below the
 surface; periodic images copy their master node).
 """
@@ -48,7 +48,7 @@ class FieldWriter:
         self.plastic_strain = fem.Function(cell_space, name="equivalent_plastic_strain")
         node_space, component_dofs = solid.V.sub(0).collapse()
         self.pressure = fem.Function(node_space, name="contact_pressure")
-        self.shear = fem.Function(node_space, name="shear_traction")
+        self.shear = fem.Function(node_space, name="shear_traction_x")
         self.state = fem.Function(node_space, name="contact_state")
 
         # Surface nodes of the scalar space and their (i mod N, j mod N) on the surface grid.
@@ -63,14 +63,13 @@ class FieldWriter:
         num_cells = solid.num_cells
         self.von_mises.x.array[:num_cells] = solid.cell_von_mises()
         self.plastic_strain.x.array[:num_cells] = solid.cell_plastic_strain()
-        state = np.where(contact.slipping, 2.0, np.where(contact.in_contact, 1.0, 0.0))
+        maps = self.flat.node_maps(contact)
         nodal = {
-            self.pressure: contact.pressure,
-            self.shear: np.linalg.norm(contact.traction, axis=1),
-            self.state: state,
+            self.pressure: maps["pressure"],
+            self.shear: maps["shear_x"],
+            self.state: np.where(maps["slip"], 2.0, np.where(maps["contact"], 1.0, 0.0)),
         }
-        for function, values in nodal.items():
-            grid = self.flat.gather_grid(values)
+        for function, grid in nodal.items():
             function.x.array[:] = 0.0
             function.x.array[self._surface_dofs] = grid[self._surface_ij[:, 0],
                                                         self._surface_ij[:, 1]]

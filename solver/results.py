@@ -22,7 +22,7 @@ class StepRecord:
     phase : str
         "normal" (preload) or "tangential".
     normal_force : float
-        F_n = sum p_k a_k [N].
+        F_n, the integral of the contact pressure [N].
     tangential_force : float
         F_t, the x force on the flat [N].
     slide : float
@@ -30,13 +30,13 @@ class StepRecord:
     flat_height : float
         Flat position h above the mean surface plane [m].
     area_ratio : float
-        A_r / A_n (contact nodes over surface nodes) [-].
+        A_r / A_n, the measure of the surface where p > 0 (integration points) [-].
     contact_nodes : int
-        Surface nodes in contact [-].
+        Surface nodes with a contact point in their faces [-].
     contact_patches : int
         Connected groups of contact nodes on the periodic grid [-].
     slipping_nodes : int
-        Contact nodes at the friction cap [-].
+        Contact nodes all of whose contact points are at the friction cap [-].
     plastic_volume_fraction : float
         Volume fraction with plastic strain [-].
     newton_iterations : int

@@ -15,7 +15,7 @@ import numpy as np
 from mpi4py import MPI
 from roughfriction.case import FemCase, Loading
 from roughfriction.geometry.mesh import Block, build_block
-from roughfriction.solver.contact import RigidFlat
+from roughfriction.solver.contact import ContactResponse, RigidFlat
 from roughfriction.solver.equilibrium import Equilibrium
 from roughfriction.solver.fields import FieldWriter
 from roughfriction.solver.periodic import PeriodicReduction, dof_node_grid_index
@@ -33,9 +33,10 @@ class FemRun:
     result : FemResult
         Records and summary.
     maps : dict
-        N x N surface maps ([i, j] at x = i h, y = j h): "contact_normal" (bool) and
-        "pressure_normal" [Pa] at the end of the preload and, when reached, "contact_sliding",
-        "slip_sliding" (bool), "pressure_sliding" and "shear_x_sliding" [Pa] at inception.
+        N x N surface maps ([i, j] at x = i h, y = j h; :meth:`RigidFlat.node_maps`) at the end
+        of the preload: "contact_normal" (bool nodes), "pressure_normal" [Pa] and
+        "contact_fraction_normal" (per face) [-]; and, when reached, at inception the same
+        with "_sliding" plus "slip_sliding" (bool) and "shear_x_sliding" [Pa].
     equilibrium : Equilibrium
         Final state (solid, flat, reduced displacement).
     block : Block
@@ -62,30 +63,34 @@ def stderr_progress(comm):
 
 
 def surface_contact(solid: Solid, block: Block, case: FemCase) -> RigidFlat:
-    """The rigid flat acting on this rank's owned surface nodes (one per grid point: the
-    periodic images at i = N or j = N share their master's dofs and are left out).
-
-    Each node carries the projected area h^2, so the N^2 nodes cover A_n exactly.
-    """
+    """The rigid flat acting on the N x N top faces of the block, with this rank's owned
+    surface nodes (one per grid point: the periodic images at i = N or j = N share their
+    master's dofs and are left out)."""
     V = solid.V
     num_owned = V.dofmap.index_map.size_local
     grid = dof_node_grid_index(V, block)[:num_owned]
     n = block.n
     on_surface = np.flatnonzero((grid[:, 2] == block.num_layers) & (grid[:, 0] < n)
                                 & (grid[:, 1] < n))
-    owned_positions = block.mesh.comm.allreduce(len(on_surface))
-    if owned_positions != n * n:  # a duplicated surface vertex would carry its area twice
-        raise RuntimeError(f"{owned_positions} surface nodes own the {n * n} grid positions")
     heights = V.tabulate_dof_coordinates()[on_surface, 2]
     material, spacing = case.material, block.spacing
     penalty = case.solver.penalty * material.E_star / spacing
     return RigidFlat(
-        block.mesh.comm, on_surface, grid[on_surface, :2], n, heights, spacing**2,
+        block.mesh.comm, on_surface, grid[on_surface, :2], n, heights, spacing,
         penalty=penalty,
         shear_strength=material.tau_c,
         ramp_pressure=case.solver.friction_ramp * material.Sy,
         tangential_penalty=case.solver.tangential_penalty * penalty,
+        points_per_side=case.solver.contact_points,
     )
+
+
+def contact_maps(flat: RigidFlat, contact: ContactResponse, phase: str) -> dict:
+    """The surface maps of a contact state, keyed ``<map>_<phase>`` (see ``FemRun.maps``)."""
+    maps = flat.node_maps(contact)
+    names = ("contact", "pressure", "contact_fraction") + (
+        ("slip", "shear_x") if phase == "sliding" else ())
+    return {f"{name}_{phase}": maps[name] for name in names}
 
 
 def run(case: FemCase, comm: MPI.Comm = MPI.COMM_WORLD, progress=None,
@@ -189,8 +194,7 @@ def run_loads(case: FemCase, loads: Sequence[float], comm: MPI.Comm = MPI.COMM_W
         outcome = preload
         maps = {}
         if path.contact is not None:
-            maps["contact_normal"] = flat.gather_grid(path.contact.in_contact)
-            maps["pressure_normal"] = flat.gather_grid(path.contact.pressure)
+            maps.update(contact_maps(flat, path.contact, "normal"))
             if fields:
                 fields.write(0.0, path.contact)
 
@@ -200,10 +204,7 @@ def run_loads(case: FemCase, loads: Sequence[float], comm: MPI.Comm = MPI.COMM_W
             normal_records = len(path.records)
             outcome = path.slide()
             if len(path.records) > normal_records:
-                maps["contact_sliding"] = flat.gather_grid(path.contact.in_contact)
-                maps["slip_sliding"] = flat.gather_grid(path.contact.slipping)
-                maps["pressure_sliding"] = flat.gather_grid(path.contact.pressure)
-                maps["shear_x_sliding"] = flat.gather_grid(path.contact.traction[:, 0])
+                maps.update(contact_maps(flat, path.contact, "sliding"))
                 if fields:
                     fields.write(1.0, path.contact)
         if fields:

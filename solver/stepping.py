@@ -198,17 +198,18 @@ class LoadPath:
         equilibrium.commit(report.contact)
         self.contact = report.contact
         flat = equilibrium.flat
-        contact_grid = flat.gather_grid(report.contact.in_contact)
+        maps = flat.node_maps(report.contact)
+        contact_grid = maps["contact"]
         record = StepRecord(
             phase=phase,
             normal_force=flat.normal_force(report.contact),
             tangential_force=flat.tangential_force(report.contact),
             slide=slide,
             flat_height=equilibrium.flat_height,
-            area_ratio=float(np.count_nonzero(contact_grid)) / contact_grid.size,
+            area_ratio=flat.area_ratio(report.contact.in_contact),
             contact_nodes=int(np.count_nonzero(contact_grid)),
             contact_patches=count_patches(contact_grid),
-            slipping_nodes=flat.count(report.contact.slipping),
+            slipping_nodes=int(np.count_nonzero(maps["slip"])),
             plastic_volume_fraction=equilibrium.solid.plastic_volume_fraction(),
             newton_iterations=report.iterations,
             krylov_iterations=report.krylov_iterations,

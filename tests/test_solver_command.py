@@ -45,7 +45,7 @@ def test_normal_only_json_and_hdf5(rough_file, tmp_path, capsys):
         assert h5["maps/contact_normal"].shape == (8, 8)
     xdmf = (fields / "fields.xdmf").read_text()
     for name in ("displacement", "von_mises", "equivalent_plastic_strain", "contact_pressure",
-                 "shear_traction", "contact_state"):
+                 "shear_traction_x", "contact_state"):
         assert f'Name="{name}"' in xdmf
 
 

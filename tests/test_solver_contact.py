@@ -1,135 +1,209 @@
-"""The contact and friction law of the surface nodes against the rigid flat (NumPy, one rank)."""
+"""Contact and friction of the surface faces against the rigid flat, at integration points
+(NumPy, one rank)."""
 
 import numpy as np
 import pytest
 from mpi4py import MPI
-from roughfriction.solver.contact import RigidFlat
+from roughfriction.solver.contact import NEIGHBOURS, RigidFlat, face_quadrature
 
 TAU_C = 577e6  # [Pa]
 RAMP = 10e6  # [Pa]
 PENALTY = 1e18  # [Pa/m]
-AREA = 1e-12  # [m^2]
+SPACING = 1e-6  # [m]
+N = 4  # faces per side
 
 
-def flat_over(heights, ramp=RAMP, tangential=PENALTY):
-    """A flat over len(heights) surface nodes whose displacement rows are 0, 1, ...
-    (``tangential``: the stick penalty eps_T [Pa/m])."""
-    n = len(heights)
-    return RigidFlat(MPI.COMM_SELF, np.arange(n), np.column_stack([np.arange(n), np.zeros(n)]),
-                     n, np.asarray(heights, float), AREA, PENALTY, TAU_C, ramp, tangential)
+def flat_over(heights=None, ramp=RAMP, tangential=PENALTY, points=2):
+    """A flat over an N x N grid of surface nodes whose displacement rows are the grid nodes
+    i N + j (``heights``: N x N [m], default flat; ``tangential``: eps_T [Pa/m])."""
+    heights = np.zeros((N, N)) if heights is None else np.asarray(heights, float)
+    i, j = np.divmod(np.arange(N * N), N)
+    return RigidFlat(MPI.COMM_SELF, np.arange(N * N), np.column_stack([i, j]), N,
+                     heights.ravel(), SPACING, PENALTY, TAU_C, ramp, tangential, points)
 
 
 def anchored(flat):
-    """Every node in contact and stuck at the last converged step (after a preload)."""
+    """Every point in contact and stuck at the last converged step (after a preload)."""
     flat.anchored[:] = True
     return flat
 
 
+def still():
+    """Zero displacement of the N^2 surface nodes [m]."""
+    return np.zeros((N * N, 3))
+
+
+@pytest.mark.parametrize("points", [1, 2, 3, 4])
+def test_face_quadrature_integrates_bilinear_products_exactly(points):
+    shape, weight = face_quadrature(points)
+    assert weight.sum() == pytest.approx(1.0)
+    np.testing.assert_allclose(shape.sum(axis=1), 1.0)
+    if points >= 2:  # consistent mass matrix of the unit square: (1 + d_x)(1 + d_y) / 36
+        mass = np.einsum("q,qa,qb->ab", weight, shape, shape)
+        assert mass[0, 0] == pytest.approx(4 / 36) and mass[0, 3] == pytest.approx(1 / 36)
+
+
+def test_points_see_the_bilinear_surface_through_the_nodes():
+    rng = np.random.default_rng(0)
+    heights = rng.normal(size=(N, N)) * 1e-8
+    flat = flat_over(heights, points=3)
+    shape, _ = face_quadrature(3)
+    face = 2 * N + 3  # face (2, 3): corners (2,3), (3,3), (2,0), (3,0) across the period
+    corners = heights[[2, 3, 2, 3], [3, 3, 0, 0]]
+    np.testing.assert_allclose(flat.heights.reshape(N * N, 9)[face], shape @ corners)
+
+
 def test_shear_cap_rises_with_pressure_up_to_tau_c():
-    flat = flat_over([0.0])
+    flat = flat_over()
     cap = flat.shear_cap(np.array([-1e6, 0.0, 2.5e6, RAMP, 1e9]))
     np.testing.assert_allclose(cap, [0.0, 0.0, 0.25 * TAU_C, TAU_C, TAU_C])
-    assert flat_over([0.0], ramp=0.0).shear_cap(np.array([1.0]))[0] == TAU_C
+    assert flat_over(ramp=0.0).shear_cap(np.array([1.0]))[0] == TAU_C
+
+
+def test_uniform_pressure_gives_consistent_nodal_forces_and_full_area():
+    pressure = 1e9
+    flat = flat_over()
+    response = flat.respond(still(), -pressure / PENALTY, 0.0, friction=False)
+    np.testing.assert_allclose(response.pressure, pressure)
+    np.testing.assert_allclose(response.node_force, [[0.0, 0.0, pressure * SPACING**2]] * N**2)
+    assert flat.normal_force(response) == pytest.approx(pressure * (N * SPACING) ** 2)
+    assert flat.area_ratio(response.in_contact) == 1.0
+
+
+def test_contact_area_is_the_measure_of_the_points_in_contact():
+    """One raised node: its four faces touch where the bilinear surface is above the flat."""
+    heights = np.zeros((N, N))
+    heights[1, 1] = 1e-8
+    height = 0.5e-8  # the flat cuts the four faces at half the node's height
+    for points in (2, 4, 8):
+        flat = flat_over(heights, points=points)
+        response = flat.respond(still(), height, 0.0, friction=False)
+        # exact: around the node, the area of {(1 - x)(1 - y) > 1/2} in each of 4 unit faces
+        exact = 4 * (0.5 - np.log(2) / 2) / N**2
+        assert flat.area_ratio(response.in_contact) == pytest.approx(exact, rel=2.0 / points)
+        maps = flat.node_maps(response)
+        assert maps["contact"].sum() == 9  # the raised node and its 8 neighbours share faces
+        assert maps["contact_fraction"].sum() * SPACING**2 == pytest.approx(
+            flat.area_ratio(response.in_contact) * (N * SPACING) ** 2)
 
 
 @pytest.mark.parametrize("pressure", [2.5e6, 1e9])
-def test_slipping_node_carries_the_cap_along_the_trial_direction(pressure):
-    flat = anchored(flat_over([0.0]))
-    height = -pressure / PENALTY  # gap -p / eps: the node presses with p
+def test_slipping_point_carries_the_cap_along_the_trial_direction(pressure):
+    flat = anchored(flat_over())
+    height = -pressure / PENALTY  # gap -p / eps: the surface presses with p
     slide = 3 * TAU_C / PENALTY  # trial traction 3 tau_c along x
-    response = flat.respond(np.zeros((1, 3)), height, slide, friction=True)
+    response = flat.respond(still(), height, slide, friction=True)
     cap = TAU_C * min(1.0, pressure / RAMP)
-    assert response.slipping[0] and response.in_contact[0]
-    np.testing.assert_allclose(response.traction[0], [cap, 0.0])
-    assert response.pressure[0] == pytest.approx(pressure)
-    # residual: the node is dragged along +x and pushed down
-    np.testing.assert_allclose(response.force[0], [-cap * AREA, 0.0, pressure * AREA])
-    # slip tangent: no stiffness along the slip, the cap's share across it; below p_r the
-    # traction also follows the pressure (x row, z column), which makes the block non-symmetric
-    block = response.stiffness[0]
-    np.testing.assert_allclose(block[:2, :2], block[:2, :2].T)
-    assert block[0, 0] == pytest.approx(0.0, abs=1e-12 * PENALTY * AREA)
-    assert block[1, 1] == pytest.approx(PENALTY * AREA * cap / (3 * TAU_C))
-    slope = TAU_C / RAMP if pressure < RAMP else 0.0
-    assert block[0, 2] == pytest.approx(-AREA * PENALTY * slope)
+    assert response.slipping.all() and response.in_contact.all()
+    np.testing.assert_allclose(response.traction, [[cap, 0.0]] * len(response.traction))
+    np.testing.assert_allclose(response.pressure, pressure)
+    # residual: each node is dragged along +x and pushed down by its tributary area
+    np.testing.assert_allclose(response.node_force[0],
+                               [-cap * SPACING**2, 0.0, pressure * SPACING**2])
+    assert flat.tangential_force(response) == pytest.approx(cap * (N * SPACING) ** 2)
     assert response.symmetric == (pressure >= RAMP)
-    # the stick point is dragged to the cap's distance behind the flat
-    np.testing.assert_allclose(response.stick_offset[0], [slide - cap / PENALTY, 0.0])
+    np.testing.assert_allclose(response.stick_offset[:, 0], slide - cap / PENALTY)
+    assert flat.node_maps(response)["slip"].all()
 
 
 @pytest.mark.parametrize("tangential", [PENALTY, 0.1 * PENALTY])
-def test_node_below_its_cap_sticks_with_the_full_stick_penalty(tangential):
-    flat = anchored(flat_over([0.0], tangential=tangential))
+def test_point_below_its_cap_sticks_with_the_full_stick_penalty(tangential):
+    flat = anchored(flat_over(tangential=tangential))
     slide = 0.5 * TAU_C / tangential
-    response = flat.respond(np.zeros((1, 3)), -1e9 / PENALTY, slide, friction=True)
-    assert not response.slipping[0]
-    np.testing.assert_allclose(response.traction[0], [0.5 * TAU_C, 0.0])
-    np.testing.assert_allclose(response.stiffness[0][:2, :2], tangential * AREA * np.eye(2))
-    assert response.stiffness[0][2, 2] == pytest.approx(PENALTY * AREA)
-    np.testing.assert_allclose(response.stick_offset[0], [0.0, 0.0], atol=1e-12 * slide)
+    response = flat.respond(still(), -1e9 / PENALTY, slide, friction=True)
+    assert not response.slipping.any()
+    np.testing.assert_allclose(response.traction[:, 0], 0.5 * TAU_C)
+    # a rigid translation of every node: the 9 blocks of a row sum to the point law times h^2
+    row = response.node_stiffness[5].sum(axis=0)
+    np.testing.assert_allclose(row, np.diag([tangential, tangential, PENALTY]) * SPACING**2)
+    np.testing.assert_allclose(response.stick_offset, 0.0, atol=1e-12 * slide)
+    assert not flat.node_maps(response)["slip"].any()
 
 
-def test_slipping_node_drags_its_stick_point_to_the_cap_over_the_stick_penalty():
-    """On commit the stick point lies tau_c / eps_T behind the flat: a softer eps_T widens the
-    stick cone, and the next step's trial traction starts from the cap again."""
+def test_slipping_point_drags_its_stick_point_to_the_cap_over_the_stick_penalty():
+    """On commit the stick point lies tau_c / eps_T behind the flat, and the next step's trial
+    traction starts from the cap again."""
     for tangential in (PENALTY, 0.1 * PENALTY):
-        flat = anchored(flat_over([0.0], tangential=tangential))
+        flat = anchored(flat_over(tangential=tangential))
         slide = 3 * TAU_C / tangential
-        response = flat.respond(np.zeros((1, 3)), -1e9 / PENALTY, slide, friction=True)
-        assert response.slipping[0]
-        np.testing.assert_allclose(response.stick_offset[0], [slide - TAU_C / tangential, 0.0])
+        response = flat.respond(still(), -1e9 / PENALTY, slide, friction=True)
+        assert response.slipping.all()
+        np.testing.assert_allclose(response.stick_offset[:, 0], slide - TAU_C / tangential)
         flat.commit(response)
-        again = flat.respond(np.zeros((1, 3)), -1e9 / PENALTY, slide, friction=True)
-        np.testing.assert_allclose(again.traction[0], [TAU_C, 0.0])
+        again = flat.respond(still(), -1e9 / PENALTY, slide, friction=True)
+        np.testing.assert_allclose(again.traction[:, 0], TAU_C)
 
 
-def test_node_at_vanishing_pressure_carries_vanishing_shear():
-    """The edge node that had no consistent state under the pure cap: as its pressure tends to 0
-    its shear does too, with the ramp; without it the shear stays at tau_c."""
+def test_point_at_vanishing_pressure_carries_vanishing_shear():
+    """As the pressure tends to 0 the shear does too, with the ramp; without it the shear stays
+    at tau_c."""
     slide = 0.9 * TAU_C / PENALTY
     for pressure in (1e6, 1e3, 1.0):
-        with_ramp = anchored(flat_over([0.0])).respond(
-            np.zeros((1, 3)), -pressure / PENALTY, slide, friction=True)
-        pure = anchored(flat_over([0.0], ramp=0.0)).respond(
-            np.zeros((1, 3)), -pressure / PENALTY, slide, friction=True)
-        assert with_ramp.traction[0, 0] == pytest.approx(TAU_C * pressure / RAMP)
-        assert pure.traction[0, 0] == pytest.approx(0.9 * TAU_C)
+        with_ramp = anchored(flat_over()).respond(still(), -pressure / PENALTY, slide, True)
+        pure = anchored(flat_over(ramp=0.0)).respond(still(), -pressure / PENALTY, slide, True)
+        np.testing.assert_allclose(with_ramp.traction[:, 0], TAU_C * pressure / RAMP)
+        np.testing.assert_allclose(pure.traction[:, 0], 0.9 * TAU_C)
 
 
-def test_frictionless_open_and_newly_touching_nodes_carry_no_shear():
-    flat = anchored(flat_over([0.0, -1e-9, 0.0]))
-    flat.anchored[2] = False  # touches in this step
+def test_open_newly_touching_and_frictionless_points_carry_no_shear():
+    heights = np.zeros((N, N))
+    heights[:, 2:] = -1e-8  # the faces between j = 2 and 3 lie 10 nm below: open
+    flat = anchored(flat_over(heights))
+    newly = np.zeros(len(flat.anchored), bool)
+    newly[:4] = True  # face (0, 0) touches in this step
+    flat.anchored[newly] = False
     slide = 0.5 * TAU_C / PENALTY
-    height = -1e9 / PENALTY  # node 1 lies 1 nm below: open
-    response = flat.respond(np.zeros((3, 3)), height, slide, friction=True)
-    np.testing.assert_array_equal(response.in_contact, [True, False, True])
-    np.testing.assert_allclose(response.traction[1:], 0.0)
-    assert response.traction[0, 0] > 0
-    frictionless = flat.respond(np.zeros((3, 3)), height, slide, friction=False)
+    response = flat.respond(still(), -1e9 / PENALTY, slide, friction=True)
+    faces = response.in_contact.reshape(N, N, -1)
+    assert faces[:, 0].all() and not faces[:, 2].any()
+    np.testing.assert_allclose(response.traction[~response.in_contact | newly], 0.0)
+    assert (response.traction[response.in_contact & ~newly, 0] > 0).all()
+    frictionless = flat.respond(still(), -1e9 / PENALTY, slide, friction=False)
     np.testing.assert_allclose(frictionless.traction, 0.0)
 
 
 @pytest.mark.parametrize("tangential", [PENALTY, 0.1 * PENALTY])
 @pytest.mark.parametrize("pressure, slide", [(2.5e6, 3.0), (1e9, 3.0), (1e9, 0.5), (2.5e6, 0.5)])
-def test_tangent_and_height_derivative_match_finite_differences(pressure, slide, tangential):
-    """dR/du (3 x 3 block) and dR/dh of a node slipping below and above p_r and sticking, against
-    central differences of the residual force (the trial traction at 30 degrees from x), with
-    eps_T = eps_N and eps_T = eps_N / 10."""
-    flat = anchored(flat_over([0.0], tangential=tangential))
+def test_nodal_tangent_and_height_derivative_match_finite_differences(pressure, slide,
+                                                                      tangential):
+    """dR_a/du_b over the 9 neighbours of a node and dR/dh, for points slipping below and above
+    p_r and sticking, on a rough surface with a random displacement (so that points differ),
+    against central differences of the nodal residual."""
+    rng = np.random.default_rng(1)
+    heights = rng.normal(size=(N, N)) * 1e-3 * pressure / PENALTY
+    flat = anchored(flat_over(heights, tangential=tangential))
     flat.stick_offset[:] = [[0.0, -0.5 * slide * TAU_C / tangential]]
     height, flat_slide = -pressure / PENALTY, slide * TAU_C / tangential * np.sqrt(0.75)
-    response = flat.respond(np.zeros((1, 3)), height, flat_slide, friction=True)
-    step = 1e-4 * pressure / PENALTY  # [m], well inside every regime
+    u0 = rng.normal(size=(N * N, 3)) * 1e-3 * pressure / PENALTY
+    response = flat.respond(u0, height, flat_slide, friction=True)
+    step = 1e-5 * pressure / PENALTY  # [m], well inside every regime
+    scale = PENALTY * SPACING**2
 
-    def force(u=None, h=height):
-        u = np.zeros(3) if u is None else u
-        return flat.respond(u[None, :], h, flat_slide, friction=True).force[0]
+    def force(u, h=height):
+        return flat.respond(u, h, flat_slide, friction=True).node_force
 
-    for j in range(3):
-        e = np.eye(3)[j] * step
-        column = (force(e) - force(-e)) / (2 * step)
-        np.testing.assert_allclose(response.stiffness[0][:, j], column, rtol=1e-6,
-                                   atol=1e-9 * PENALTY * AREA)
-    column = (force(h=height + step) - force(h=height - step)) / (2 * step)
-    np.testing.assert_allclose(response.height_derivative[0], column, rtol=1e-6,
-                               atol=1e-9 * PENALTY * AREA)
+    row = 5  # node (1, 1)
+    i, j = divmod(row, N)
+    for k, (di, dj) in enumerate(NEIGHBOURS):
+        column_node = ((i + di) % N) * N + (j + dj) % N
+        for c in range(3):
+            e = np.zeros_like(u0)
+            e[column_node, c] = step
+            column = (force(u0 + e)[row] - force(u0 - e)[row]) / (2 * step)
+            np.testing.assert_allclose(response.node_stiffness[row, k, :, c], column,
+                                       rtol=1e-5, atol=1e-7 * scale)
+    column = (force(u0, height + step) - force(u0, height - step)) / (2 * step)
+    np.testing.assert_allclose(response.node_height_derivative, column, rtol=1e-5,
+                               atol=1e-7 * scale)
+
+
+def test_touching_height_carries_the_force_with_springs_at_the_points():
+    heights = np.zeros((N, N))
+    heights[1, 1] = 1e-8
+    flat = flat_over(heights)
+    force = 1e-3  # [N]
+    h = flat.touching_height(still(), force, 2.2e11)
+    assert 0.0 < h < 1e-8
+    area = flat.point_weight * SPACING**2
+    stiffness = 1.0 / (1.0 / (PENALTY * area) + 0.95 / (2.2e11 * np.sqrt(area)))
+    assert np.sum(stiffness * np.maximum(flat.heights - h, 0.0)) == pytest.approx(force)

@@ -81,7 +81,9 @@ class ScriptedEquilibrium:
         self.flat_height = 0.0
         self.solid = types.SimpleNamespace(plastic_volume_fraction=lambda: 0.0)
         self.flat = types.SimpleNamespace(
-            gather_grid=lambda values: np.asarray(values).reshape(2, 2),
+            node_maps=lambda contact: {"contact": contact.in_contact.reshape(2, 2),
+                                       "slip": contact.slipping.reshape(2, 2)},
+            area_ratio=lambda flags: float(np.mean(flags)),
             normal_force=lambda contact: contact.fn,
             tangential_force=lambda contact: 0.5 * contact.fn if contact.slide else 0.0,
             count=lambda flags: int(np.count_nonzero(flags)))
