@@ -58,9 +58,8 @@ from roughfriction.studies.batch import (
 MATRIX_SURFACES = tuple(f"G{k}" for k in range(1, 10))
 #: Loads F* of the matrix [-].
 MATRIX_LOADS = (0.01, 0.155, 0.62, 1.86)
-#: Measured surface (path under the shared data directory), run at MATRIX_LOADS. The issue
-#: names ST400 test3; by the data README's Sdq it is the least steep of the four ST400 files
-#: (test3 0.47, test1 0.69, test2 0.79, test4 0.80).
+#: Measured surface (path under data/surfaces), run at MATRIX_LOADS: ST400 test3, by Sdq the
+#: least steep of the four ST400 files (test3 0.47, test1 0.69, test2 0.79, test4 0.80).
 MEASURED_SURFACE = "nanovea_st400/test3.txt"
 #: Surface and loads F* [-] of the option variants.
 OPTION_SURFACE, OPTION_LOADS = "G5", (0.01, 0.155)
@@ -71,7 +70,7 @@ STEP_FACTORS = (0.25, 0.5, 2.0, 4.0)
 #: Option varied by each kind of option run.
 OPTIONS = {"penalty": "penalty", "step": "first_slide"}
 
-#: Environment variable naming the shared surface data (default <repo>/../shared/data/surfaces).
+#: Environment variable naming another surface data directory (default <repo>/data/surfaces).
 DATA_VARIABLE = "ROUGHFRICTION_SURFACE_DATA"
 
 #: Outcomes, in table order.
@@ -112,9 +111,9 @@ class StressRun:
 
 
 def surface_data_directory() -> Path:
-    """The shared measured surfaces: $ROUGHFRICTION_SURFACE_DATA, else ../shared/data/surfaces
-    beside the checkout."""
-    default = Path(__file__).resolve().parents[2] / "shared" / "data" / "surfaces"
+    """The measured surfaces: $ROUGHFRICTION_SURFACE_DATA, else data/surfaces of the source
+    tree (shipped with the repository)."""
+    default = Path(__file__).resolve().parents[1] / "data" / "surfaces"
     return Path(os.environ.get(DATA_VARIABLE) or default)
 
 

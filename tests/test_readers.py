@@ -1,7 +1,6 @@
-"""Tests of geometry.readers on synthetic files and the shared measured samples."""
+"""Tests of geometry.readers on synthetic files and the measured samples in data/surfaces."""
 
 import json
-import os
 import sys
 from pathlib import Path
 
@@ -13,10 +12,13 @@ from roughfriction.geometry.readers import load_surface, parse_length, read_surf
 from roughfriction.geometry.statistics import rms_height
 from roughfriction.geometry.surface import detrend_plane
 
-# The shared measured samples live beside the checkout: <repo>/../shared/data/surfaces.
-DEFAULT_DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "surfaces"
-DATA = Path(os.environ.get("ROUGHFRICTION_SURFACE_DATA", DEFAULT_DATA))
-needs_data = pytest.mark.skipif(not DATA.is_dir(), reason=f"shared surface data not at {DATA}")
+# The measured samples ship with the repository (data/surfaces/README.md).
+DATA = Path(__file__).resolve().parents[1] / "data" / "surfaces"
+
+
+def needs_data(test):
+    """A test on the shipped samples (which must be there: a missing file fails it)."""
+    return test
 
 
 def sample_json(relative):
