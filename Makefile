@@ -34,9 +34,21 @@ $(VENV)/.apt-done:
 $(VENV)/pyvenv.cfg: $(VENV)/.apt-done
 	@/usr/bin/python3 -m venv --system-site-packages $(VENV)
 
-# pip must never replace Debian's numpy: pin it to the version Debian installed.
+# pip must never replace Debian's numpy stack (dolfinx and h5py are built against it): pin the
+# versions Debian installed.
 $(VENV)/.installed: pyproject.toml $(VENV)/pyvenv.cfg
-	@/usr/bin/python3 -c 'import numpy; print(f"numpy=={numpy.__version__}")' > $(VENV)/constraints.txt
+	@/usr/bin/python3 -c 'import numpy, scipy, matplotlib, h5py; \
+	  print("\n".join(f"{m.__name__}=={m.__version__}" for m in (numpy, scipy, matplotlib, h5py)))' \
+	  > $(VENV)/constraints.txt
+	@# Debian registers h5py as "h5py._debian_h5py_serial", which pip does not recognise as h5py:
+	@# declare it to pip, or a dependency on h5py pulls a wheel that clashes with dolfinx's HDF5.
+	@site=$$($(PY) -c 'import sysconfig; print(sysconfig.get_paths()["purelib"])'); \
+	  version=$$(/usr/bin/python3 -c 'import h5py; print(h5py.__version__)'); \
+	  mkdir -p $$site/h5py-$$version.dist-info; \
+	  printf 'Metadata-Version: 2.1\nName: h5py\nVersion: %s\n' $$version \
+	    > $$site/h5py-$$version.dist-info/METADATA; \
+	  echo debian > $$site/h5py-$$version.dist-info/INSTALLER; \
+	  : > $$site/h5py-$$version.dist-info/RECORD
 	@$(PY) -m pip install -q --disable-pip-version-check -c $(VENV)/constraints.txt -e '.[dev]'
 	@touch $@
 

@@ -28,6 +28,7 @@ from roughfriction.case import FemCase, Loading, MeshOptions, SolverOptions
 from roughfriction.errors import InputError
 from roughfriction.geometry.surface import Surface, surface_on_fem_grid
 from roughfriction.material import Material
+from roughfriction.studies.refinement import refined_case, richardson
 
 CONFIG_TABLES = {"mesh": MeshOptions, "solver": SolverOptions, "material": Material}
 CONFIG_KEYS = {"load", "n", "elastic", "normal_only"}
@@ -44,6 +45,10 @@ def add_fem_arguments(parser: argparse.ArgumentParser) -> None:
                         help="linear elastic solid (no plasticity)")
     parser.add_argument("--normal-only", action="store_true", default=None,
                         help="preload only (mu_s is null)")
+    parser.add_argument("--refine", action="store_true",
+                        help="also run a 2x finer mesh of the same (bilinear) surface and report "
+                        "its mu_s with an error estimate (mu_s_coarse, mu_s_extrapolated, "
+                        "mu_s_error; see docs/verification.md)")
     parser.add_argument("--xdmf", metavar="DIR", help="write fields to DIR/fields.xdmf")
     parser.add_argument("--output", metavar="FILE",
                         help="HDF5 results file (default results/fem/<surface>_F<load>_N<n>.h5)")
@@ -121,13 +126,39 @@ def run_fem(args) -> dict:
 
     comm = MPI.COMM_WORLD
     case = case_from_args(args, surface_from_args(args))
-    outcome = run(case, comm, xdmf_directory=args.xdmf)
     output = Path(args.output) if args.output else default_output(case)
-    save_run(output, case, outcome, comm)
+    outcome = run(case, comm, xdmf_directory=args.xdmf)
+    if not args.refine:
+        save_run(output, case, outcome, comm)
+        _check_converged(outcome, output)
+        return outcome.result.summary()
+
+    coarse_output = output.with_name(f"{output.stem}_coarse{output.suffix}")
+    save_run(coarse_output, case, outcome, comm)
+    _check_converged(outcome, coarse_output)
+    fine_case = refined_case(case, 2)
+    fine = run(fine_case, comm)
+    estimate = discretisation_error(outcome.result.summary(), fine.result.summary())
+    save_run(output, fine_case, fine, comm, estimate=estimate)
+    _check_converged(fine, output)
+    return {**fine.result.summary(), **estimate}
+
+
+def discretisation_error(coarse: dict, fine: dict) -> dict:
+    """The fine mesh's mu_s (or, normal-only, its preload area ratio) with its Richardson error
+    estimate from the coarse mesh at first order (``studies.refinement``)."""
+    key = "mu_s" if fine["mu_s"] is not None else "area_ratio_normal"
+    estimate = richardson([coarse[key], fine[key]])
+    return {f"{key}_coarse": coarse[key], f"{key}_extrapolated": estimate.extrapolated,
+            f"{key}_error": estimate.error, "error_order": estimate.order,
+            "error_order_observed": estimate.observed}
+
+
+def _check_converged(outcome, output: Path) -> None:
+    """Refuse an unconverged run (after its partial results were written to ``output``)."""
     if not outcome.result.converged:
         raise InputError(f"FEM run did not converge: {outcome.result.message} "
                          f"(partial results in {output})")
-    return outcome.result.summary()
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -206,7 +206,8 @@ def git_revision() -> str:
     return revision.stdout.strip()
 
 
-def write_hdf5(path: Path, inputs: dict, result: FemResult, maps: dict, note: str = "") -> None:
+def write_hdf5(path: Path, inputs: dict, result: FemResult, maps: dict, note: str = "",
+               estimate: dict | None = None) -> None:
     """Write a run to HDF5 atomically (temporary file, then rename). Call on one rank.
 
     Layout: root attributes ``inputs``, ``summary`` (JSON), ``versions``, ``git``,
@@ -225,16 +226,21 @@ def write_hdf5(path: Path, inputs: dict, result: FemResult, maps: dict, note: st
         Name -> N x N array (e.g. contact at the end of preload and at inception).
     note : str
         How the run was obtained, if not the usual way (root attribute ``note``).
+    estimate : dict, optional
+        Discretisation error estimate (e.g. ``mu_s_error``), added to the summary.
     """
-    atomic_write(Path(path), lambda temporary: _write_hdf5(temporary, inputs, result, maps, note))
+    summary = {**result.summary(), **(estimate or {})}
+    atomic_write(Path(path), lambda temporary: _write_hdf5(temporary, inputs, result, summary,
+                                                           maps, note))
 
 
-def _write_hdf5(path, inputs: dict, result: FemResult, maps: dict, note: str) -> None:
+def _write_hdf5(path, inputs: dict, result: FemResult, summary: dict, maps: dict,
+                note: str) -> None:
     import h5py
 
     with h5py.File(path, "w") as h5:
         h5.attrs["inputs"] = json.dumps(inputs)
-        h5.attrs["summary"] = json.dumps(result.summary())
+        h5.attrs["summary"] = json.dumps(summary)
         h5.attrs["versions"] = json.dumps(package_versions())
         h5.attrs["git"] = git_revision()
         h5.attrs["converged"] = result.converged
@@ -255,7 +261,8 @@ def _write_hdf5(path, inputs: dict, result: FemResult, maps: dict, note: str) ->
             grid_maps.create_dataset(name, data=values)
 
 
-def save_run(path: Path, case: FemCase, fem_run, comm, note: str = "") -> None:
+def save_run(path: Path, case: FemCase, fem_run, comm, note: str = "",
+             estimate: dict | None = None) -> None:
     """Write a run's results file (rank 0 writes, atomically; every rank waits for it).
 
     The file holds the case's inputs, the records and summary, and the surface maps of the
@@ -275,8 +282,10 @@ def save_run(path: Path, case: FemCase, fem_run, comm, note: str = "") -> None:
     note : str
         How the run was obtained, if not the usual way (e.g. on a standalone path after its
         shared normal path failed, see :mod:`roughfriction.studies.cache`).
+    estimate : dict, optional
+        Discretisation error estimate added to the summary (``fem --refine``).
     """
     if comm.rank == 0:
         maps = {"surface_heights": case.surface.heights, **fem_run.maps}
-        write_hdf5(path, case.inputs(), fem_run.result, maps, note)
+        write_hdf5(path, case.inputs(), fem_run.result, maps, note, estimate)
     comm.barrier()

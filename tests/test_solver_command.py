@@ -114,3 +114,21 @@ def test_patches_join_across_the_periodic_boundary():
     assert count_patches(grid) == 4
     assert count_patches(np.ones((5, 5), bool)) == 1
     assert count_patches(np.zeros((5, 5), bool)) == 0
+
+
+@pytest.mark.fem
+def test_refine_reports_the_finer_mesh_with_an_error_estimate(tmp_path, capsys):
+    output = tmp_path / "run.h5"
+    code = main(["G5", "--n", "8", "--load", "0.155", "--refine", "--json", "--output",
+                 str(output)])
+    assert code == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert summary["converged"] and summary["error_order"] == 1.0
+    difference = summary["mu_s"] - summary["mu_s_coarse"]
+    assert summary["mu_s_error"] == pytest.approx(abs(difference))
+    assert summary["mu_s_extrapolated"] == pytest.approx(summary["mu_s"] + difference)
+    with h5py.File(output) as h5:
+        assert json.loads(h5.attrs["summary"]) == summary
+        assert json.loads(h5.attrs["inputs"])["surface"]["n"] == 16
+    with h5py.File(tmp_path / "run_coarse.h5") as h5:
+        assert json.loads(h5.attrs["summary"])["mu_s"] == summary["mu_s_coarse"]
