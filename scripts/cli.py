@@ -2,7 +2,8 @@
 
 Every subcommand prints a short human-readable table, or with ``--json`` one JSON object on
 stdout (SI units; NaN and infinities become ``null``) so that it can be piped into other tools.
-Errors the user can fix print one line on stderr and exit with status 2.
+Exit status: 0 success; 2 an input the user can fix (one line on stderr); 3 a FEM run that did
+not converge (partial results written, one line on stderr); 1 anything else (a bug: traceback).
 """
 
 from __future__ import annotations
@@ -12,10 +13,12 @@ import json
 import math
 import sys
 
-from roughfriction.errors import InputError
+from roughfriction.errors import ConvergenceError, InputError
 from roughfriction.material import Material
 
 EXIT_INPUT_ERROR = 2
+#: Exit status of a FEM run that did not converge.
+EXIT_NOT_CONVERGED = 3
 
 
 def _finite_or_none(value):
@@ -281,6 +284,10 @@ def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:
         record = args.run(args)
+    except ConvergenceError as error:
+        if is_root_rank():
+            print(f"roughfriction: not converged: {error}", file=sys.stderr)
+        return EXIT_NOT_CONVERGED
     except InputError as error:
         if is_root_rank():
             print(f"roughfriction: error: {error}", file=sys.stderr)

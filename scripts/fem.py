@@ -25,7 +25,7 @@ from dataclasses import fields
 from pathlib import Path
 
 from roughfriction.case import FemCase, Loading, MeshOptions, SolverOptions
-from roughfriction.errors import InputError
+from roughfriction.errors import ConvergenceError, InputError
 from roughfriction.geometry.surface import Surface, surface_on_fem_grid
 from roughfriction.material import Material
 from roughfriction.studies.refinement import refined_case, richardson
@@ -116,7 +116,9 @@ def run_fem(args) -> dict:
     Raises
     ------
     InputError
-        Bad input, an inverted mesh, or a run that did not converge (after writing the partial
+        Bad input or an inverted mesh.
+    ConvergenceError
+        A run that did not converge (after writing the partial
         results).
     """
     from mpi4py import MPI
@@ -157,7 +159,7 @@ def discretisation_error(coarse: dict, fine: dict) -> dict:
 def _check_converged(outcome, output: Path) -> None:
     """Refuse an unconverged run (after its partial results were written to ``output``)."""
     if not outcome.result.converged:
-        raise InputError(f"FEM run did not converge: {outcome.result.message} "
+        raise ConvergenceError(f"FEM run did not converge: {outcome.result.message} "
                          f"(partial results in {output})")
 
 
