@@ -1,7 +1,8 @@
 """Read measured height maps (NumPy, text matrix, x-y-z point lists, instrument files).
 
-Every reader returns raw heights [m] on a uniform grid (NaN where unmeasured) and the grid
-spacing [m]; :func:`read_surface` then crops, fills and detrends and builds the ``Surface``.
+:func:`read_heights` returns a file's raw heights [m] on its uniform grid (NaN where unmeasured)
+and its pixel sizes [m]; :func:`read_surface` then makes the pixels and the grid square, fills,
+detrends, builds the ``Surface`` and refuses heights too steep to be in metres.
 """
 
 from __future__ import annotations
@@ -13,6 +14,7 @@ from pathlib import Path
 import numpy as np
 from roughfriction.errors import InputError
 from roughfriction.geometry.generate import builtin_names, builtin_surface
+from roughfriction.geometry.statistics import spectral_moments
 from roughfriction.geometry.surface import Surface, crop_square, detrend_plane, fill_missing
 
 # Length units accepted in strings [m per unit]; both micro signs (U+00B5, U+03BC) are accepted.
@@ -36,6 +38,10 @@ ST400_MISSING_HEIGHT = -1.0
 
 TEXT_SUFFIXES = (".txt", ".csv", ".dat", ".asc", ".xyz")
 FORMATS = ("npy", "matrix", "xyz", "instrument")
+
+# Largest RMS slope [-] accepted from a file; the shipped samples have 0.003 to 0.8 (the built-in
+# 63M, never read from a file, 1.18), and heights in a wrong unit (um read as m) 1e3 and more.
+MAX_RMS_SLOPE = 1.0
 
 _NUMBER = r"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?"
 _LENGTH = re.compile(rf"\s*({_NUMBER})\s*([^\d\s.+-][^\s]*)?\s*")
@@ -128,14 +134,13 @@ def _uniform_axis(coordinates: np.ndarray, label: str, path: Path) -> tuple[np.n
 
 def _grid_from_points(
     points: np.ndarray, path: Path, missing_height: float | None
-) -> tuple[np.ndarray, float]:
-    """Heights on the grid spanned by the unique x and y of an x-y-z list (file units)."""
+) -> tuple[np.ndarray, float, float]:
+    """Heights on the grid spanned by the unique x and y of an x-y-z list, and the x and y
+    spacings (file units)."""
     if not np.all(np.isfinite(points[:, :2])):
         raise InputError(f"{path.name}: some x or y coordinates are not numbers")
     x_values, dx = _uniform_axis(points[:, 0], "x", path)
     y_values, dy = _uniform_axis(points[:, 1], "y", path)
-    if abs(dx - dy) > 1e-3 * dx:
-        raise InputError(f"{path.name}: x spacing {dx:g} differs from y spacing {dy:g}")
     i = np.rint((points[:, 0] - x_values[0]) / dx).astype(int)
     j = np.rint((points[:, 1] - y_values[0]) / dy).astype(int)
     heights = np.full((x_values.size, y_values.size), np.nan)
@@ -144,7 +149,7 @@ def _grid_from_points(
         raise InputError(f"{path.name}: some (x, y) points appear more than once")
     if missing_height is not None:
         heights[heights == missing_height] = np.nan
-    return heights, dx
+    return heights, dx, dy
 
 
 def _read_npy(path: Path) -> np.ndarray:
@@ -155,8 +160,21 @@ def _read_npy(path: Path) -> np.ndarray:
         raise InputError(f"{path.name}: not a plain NumPy array file ({err})") from err
 
 
-def _read_instrument(path: Path) -> tuple[np.ndarray, float]:
-    """Heights [m] (NaN where undefined) and spacing [m] through SurfaceTopography."""
+def _digital_surf_unmeasured(topography) -> np.ndarray | bool:
+    """Where a Digital Surf (.sur) topography holds a non-measured point (else False).
+
+    With ``special_points`` set, such files store those points as the integer zmin - 2 (the
+    MountainsMap convention), which SurfaceTopography 1.18 returns as a height.
+    """
+    header = topography.info.get("raw_metadata") or {}
+    if header.get("magic") != "DIGITAL SURF" or header.get("special_points") != 1:
+        return False
+    marker = (header["zmin"] - 2) * header["height_scale_factor"]  # file units
+    return np.asarray(topography.heights()) == marker
+
+
+def _read_instrument(path: Path) -> tuple[np.ndarray, float, float]:
+    """Heights [m] (NaN where undefined) and x, y pixel sizes [m] through SurfaceTopography."""
     try:
         import SurfaceTopography
     except ImportError as err:
@@ -165,7 +183,9 @@ def _read_instrument(path: Path) -> tuple[np.ndarray, float]:
             "package: pip install 'roughfriction[instruments]'"
         ) from err
     try:
-        topography = SurfaceTopography.read_topography(str(path)).to_unit("m")
+        native = SurfaceTopography.read_topography(str(path))
+        unmeasured = _digital_surf_unmeasured(native)
+        topography = native.to_unit("m")
         heights = np.ma.filled(np.ma.asarray(topography.heights(), dtype=float), np.nan)
         sizes = np.asarray(topography.physical_sizes, dtype=float)
         points = np.asarray(topography.nb_grid_pts, dtype=float)
@@ -174,10 +194,9 @@ def _read_instrument(path: Path) -> tuple[np.ndarray, float]:
         raise InputError(f"{path.name}: SurfaceTopography cannot read it ({reason})") from err
     if heights.ndim != 2:
         raise InputError(f"{path.name}: holds a line scan, not a 2-D height map")
+    heights[unmeasured] = np.nan
     dx, dy = sizes / points  # SurfaceTopography's physical size is n_points x pixel size
-    if abs(dx - dy) > 1e-3 * dx:
-        raise InputError(f"{path.name}: pixels are not square ({dx:g} m x {dy:g} m)")
-    return heights, dx
+    return heights, dx, dy
 
 
 def _xyz_heights(
@@ -186,21 +205,24 @@ def _xyz_heights(
     height_unit: str | None,
     lateral_unit: str | None,
     missing_height: float | None,
-) -> tuple[np.ndarray, float]:
-    """Heights [m] and spacing [m] of an x-y-z point list (ST400 units unless overridden)."""
+) -> tuple[np.ndarray, float, float]:
+    """Heights [m] and x, y spacings [m] of an x-y-z point list (ST400 units unless overridden)."""
     if table.shape[1] != 3:
         raise InputError(f"{path.name}: an x-y-z list needs 3 columns, not {table.shape[1]}")
-    grid, file_spacing = _grid_from_points(table, path, missing_height)
+    grid, dx, dy = _grid_from_points(table, path, missing_height)
+    lateral_scale = length_unit_scale(lateral_unit or ST400_LATERAL_UNIT)
     return (
         grid * length_unit_scale(height_unit or ST400_HEIGHT_UNIT),
-        file_spacing * length_unit_scale(lateral_unit or ST400_LATERAL_UNIT),
+        dx * lateral_scale,
+        dy * lateral_scale,
     )
 
 
 def _gridded_heights(
     path: Path, raw: np.ndarray, fmt: str, size, height_unit: str | None
-) -> tuple[np.ndarray, float]:
-    """Heights [m] and spacing [m] of a bare height array (npy or text matrix), row index = x."""
+) -> tuple[np.ndarray, float, float]:
+    """Heights [m] and x, y spacings [m] (equal) of a bare height array (npy or text matrix),
+    row index = x."""
     if size is None:
         raise InputError(
             f"{path.name}: a {fmt} file has no lateral scale; give the scan length from "
@@ -213,18 +235,31 @@ def _gridded_heights(
     if raw.ndim != 2 or min(raw.shape) < 2:
         raise InputError(f"{path.name}: expected a 2-D height map, got shape {raw.shape}")
     heights = raw.astype(float) * length_unit_scale(height_unit or "m")
-    return heights, _size_in_metres(size) / (raw.shape[0] - 1)
+    spacing = _size_in_metres(size) / (raw.shape[0] - 1)
+    return heights, spacing, spacing
 
 
-def _raw_heights(
-    path: Path,
-    fmt: str | None,
-    size,
-    height_unit: str | None,
-    lateral_unit: str | None,
-    missing_height: float | None,
-) -> tuple[np.ndarray, float]:
-    """Heights [m] (NaN where missing) and spacing [m] of a file; see :func:`read_surface`."""
+def read_heights(
+    path,
+    *,
+    size=None,
+    height_unit: str | None = None,
+    lateral_unit: str | None = None,
+    fmt: str | None = None,
+    missing_height: float | None = ST400_MISSING_HEIGHT,
+) -> tuple[np.ndarray, float, float]:
+    """A file's heights on its full grid, before any crop, fill, detrend or resampling.
+
+    Options and formats as in :func:`read_surface`.
+
+    Returns
+    -------
+    tuple
+        Heights [m], shape (n_x, n_y), NaN where unmeasured; pixel sizes dx, dy [m].
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise InputError(f"no such file: {path}")
     if fmt is None:
         suffix = path.suffix.lower()
         fmt = "npy" if suffix == ".npy" else "text" if suffix in TEXT_SUFFIXES else "instrument"
@@ -250,6 +285,71 @@ def _raw_heights(
     return _gridded_heights(path, raw, fmt, size, height_unit)
 
 
+def _resample_axis(heights: np.ndarray, step: float, new_step: float, axis: int) -> np.ndarray:
+    """Linear interpolation along one axis from pixels of ``step`` [m] to ``new_step`` [m].
+
+    Pixels are areas: old pixel i is centred at (i + 1/2) ``step``, new pixel k at
+    (k + 1/2) ``new_step``, and n ``step`` / ``new_step`` (rounded) new ones cover the same
+    length. New centres outside the outer old ones (less than half a pixel) take the edge value;
+    a zero weight never picks up a neighbour's NaN.
+    """
+    n = heights.shape[axis]
+    n_new = max(2, round(n * step / new_step))
+    t = np.clip((np.arange(n_new) + 0.5) * (new_step / step) - 0.5, 0.0, n - 1)
+    left = np.minimum(np.floor(t).astype(int), n - 2)
+    weight = np.expand_dims(t - left, 1 - axis)
+    z0, z1 = np.take(heights, left, axis=axis), np.take(heights, left + 1, axis=axis)
+    return np.where(weight == 0, z0, np.where(weight == 1, z1, (1 - weight) * z0 + weight * z1))
+
+
+def square_pixels(heights, dx: float, dy: float) -> tuple[np.ndarray, float]:
+    """Bilinear resampling onto square pixels of side min(dx, dy), same physical size.
+
+    Parameters
+    ----------
+    heights : array_like
+        Heights [m], shape (n_x, n_y), NaN where missing (it spreads to the new pixels next to it).
+    dx, dy : float
+        Pixel sizes [m] along x (axis 0) and y.
+
+    Returns
+    -------
+    tuple
+        Heights [m], shape (round(n_x dx / h), round(n_y dy / h)), and h = min(dx, dy) [m].
+    """
+    z = np.asarray(heights, dtype=float)
+    if z.ndim != 2 or min(z.shape) < 2:
+        raise InputError(f"resampling needs a 2-D grid of at least 2 x 2, got shape {z.shape}")
+    h = min(dx, dy)
+    return _resample_axis(_resample_axis(z, dx, h, 0), dy, h, 1), h
+
+
+def _square_pixel_grid(
+    path: Path, heights: np.ndarray, dx: float, dy: float, pixels: str | None
+) -> tuple[np.ndarray, float]:
+    """Heights [m] and spacing [m] on square pixels: as read, or resampled if asked."""
+    if abs(dx - dy) <= 1e-3 * min(dx, dy):
+        return heights, dx
+    if pixels != "resample":
+        raise InputError(
+            f"{path.name}: pixels are not square ({dx:.6g} m x {dy:.6g} m); "
+            "resample them with --resample-pixels (pixels='resample')"
+        )
+    return square_pixels(heights, dx, dy)
+
+
+def _refuse_steep(surface: Surface, path: Path) -> Surface:
+    """``surface``, unless its RMS slope exceeds ``MAX_RMS_SLOPE`` (heights in a wrong unit)."""
+    mean_square = sum(spectral_moments(surface.heights, surface.spacing, axis=a)[1] for a in (0, 1))
+    slope = float(np.sqrt(mean_square))  # forward differences along x and y
+    if slope > MAX_RMS_SLOPE:
+        raise InputError(
+            f"{path.name}: RMS slope {slope:.2g} > {MAX_RMS_SLOPE:g}: heights probably not in "
+            "the unit assumed; give --height-unit (also to keep them as they are)"
+        )
+    return surface
+
+
 def read_surface(
     path,
     *,
@@ -258,6 +358,7 @@ def read_surface(
     lateral_unit: str | None = None,
     fill: str | None = None,
     square: str | None = None,
+    pixels: str | None = None,
     detrend: bool = True,
     fmt: str | None = None,
     missing_height: float | None = ST400_MISSING_HEIGHT,
@@ -278,8 +379,11 @@ def read_surface(
     * ``"instrument"`` (x3p, sur, opd, al3d, di, ...): through the optional SurfaceTopography
       package (``pip install 'roughfriction[instruments]'``); units come from the file.
 
-    Then, in this order: a non-square grid is refused unless ``square="crop"``; missing points
-    are refused unless ``fill`` is given; the least-squares plane is removed if ``detrend``.
+    Then, in this order: non-square pixels are refused unless ``pixels="resample"``; a
+    non-square grid is refused unless ``square="crop"``; missing points are refused unless
+    ``fill`` is given; the least-squares plane is removed if ``detrend``. Last, unless
+    ``height_unit`` is given, a surface with an RMS slope above ``MAX_RMS_SLOPE`` is refused:
+    its heights are probably in another unit than assumed.
 
     Parameters
     ----------
@@ -296,6 +400,8 @@ def read_surface(
         How to fill missing points (see ``geometry.surface.fill_missing``).
     square : {"crop"}, optional
         Crop a non-square grid to its largest centred square.
+    pixels : {"resample"}, optional
+        Resample non-square pixels bilinearly onto square ones (:func:`square_pixels`).
     detrend : bool, optional
         Remove the least-squares plane (after filling).
     fmt : {"npy", "matrix", "xyz", "instrument"}, optional
@@ -309,11 +415,19 @@ def read_surface(
         Heights [m] on the square grid, spacing h [m].
     """
     path = Path(path)
-    if not path.is_file():
-        raise InputError(f"no such file: {path}")
     if square not in (None, "crop"):
         raise InputError(f"unknown square option {square!r}; use 'crop' or None")
-    heights, spacing = _raw_heights(path, fmt, size, height_unit, lateral_unit, missing_height)
+    if pixels not in (None, "resample"):
+        raise InputError(f"unknown pixels option {pixels!r}; use 'resample' or None")
+    heights, dx, dy = read_heights(
+        path,
+        size=size,
+        height_unit=height_unit,
+        lateral_unit=lateral_unit,
+        fmt=fmt,
+        missing_height=missing_height,
+    )
+    heights, spacing = _square_pixel_grid(path, heights, dx, dy, pixels)
     if heights.shape[0] != heights.shape[1]:
         if square != "crop":
             raise InputError(
@@ -325,7 +439,8 @@ def read_surface(
         heights = fill_missing(heights, fill)
     if detrend:
         heights = detrend_plane(heights)
-    return Surface(heights, spacing, path.stem)
+    surface = Surface(heights, spacing, path.stem)
+    return surface if height_unit is not None else _refuse_steep(surface, path)
 
 
 def load_surface(spec: str, **read_options) -> Surface:

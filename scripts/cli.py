@@ -106,6 +106,11 @@ def add_surface_arguments(parser: argparse.ArgumentParser) -> None:
         "--crop", action="store_true", help="crop a non-square grid to its largest centred square"
     )
     group.add_argument(
+        "--resample-pixels",
+        action="store_true",
+        help="interpolate non-square pixels (bilinear) onto square ones of the smaller side",
+    )
+    group.add_argument(
         "--no-detrend", action="store_true", help="keep the least-squares plane of the data"
     )
 
@@ -121,6 +126,7 @@ def surface_from_args(args):
         lateral_unit=args.lateral_unit,
         fill=args.fill,
         square="crop" if args.crop else None,
+        pixels="resample" if args.resample_pixels else None,
         detrend=not args.no_detrend,
     )
 

@@ -8,9 +8,16 @@ import numpy as np
 import pytest
 from roughfriction.errors import InputError
 from roughfriction.geometry.generate import builtin_surface
-from roughfriction.geometry.readers import load_surface, parse_length, read_surface
+from roughfriction.geometry.readers import (
+    load_surface,
+    parse_length,
+    read_heights,
+    read_surface,
+    square_pixels,
+)
 from roughfriction.geometry.statistics import rms_height
 from roughfriction.geometry.surface import detrend_plane
+from roughfriction.scripts.cli import build_parser, surface_from_args
 
 # The measured samples ship with the repository (data/surfaces/README.md).
 DATA = Path(__file__).resolve().parents[1] / "data" / "surfaces"
@@ -23,6 +30,11 @@ def needs_data(test):
 
 def sample_json(relative):
     return json.loads((DATA / relative).with_suffix(".json").read_text())
+
+
+def sq_after_detrend(heights):
+    """RMS height [m] about the least-squares plane, over the measured points (the json's Sq)."""
+    return float(np.sqrt(np.nanmean(detrend_plane(heights) ** 2)))
 
 
 # --- parse_length -------------------------------------------------------------------------------
@@ -79,7 +91,7 @@ def numeric(values):
 
 def asymmetric_field(nx=6, ny=6):
     i, j = np.indices((nx, ny), dtype=float)
-    return 100.0 + 3.0 * i**2 + 0.5 * j  # um; differs under transposition
+    return 100.0 + 0.3 * i**2 + 0.05 * j  # um; differs under transposition; RMS slope < 1 at 5 um
 
 
 def test_xyz_orientation_units_and_no_detrend(tmp_path):
@@ -114,8 +126,9 @@ def test_xyz_unmeasured_points_are_missing(tmp_path, marker):
 def test_xyz_missing_marker_can_be_disabled(tmp_path):
     z = numeric(asymmetric_field())
     z[2, 3] = "-1.0000"
-    surface = read_surface(write_xyz(tmp_path / "s.txt", z), missing_height=None, detrend=False)
-    assert surface.heights[2, 3] == pytest.approx(-1e-6)
+    path = write_xyz(tmp_path / "s.txt", z)
+    surface = read_surface(path, missing_height=None, height_unit="nm", detrend=False)
+    assert surface.heights[2, 3] == pytest.approx(-1e-9)  # in um, the -1 spike is too steep
 
 
 def test_xyz_refuses_non_uniform_grid(tmp_path):
@@ -129,7 +142,7 @@ def test_xyz_refuses_non_uniform_grid(tmp_path):
 def test_xyz_refuses_unequal_spacings_and_duplicates(tmp_path):
     path = tmp_path / "rect.txt"
     path.write_text("\n".join(f"{0.005 * i},{0.010 * j},1.0" for j in range(4) for i in range(4)))
-    with pytest.raises(InputError, match="differs from y spacing"):
+    with pytest.raises(InputError, match="pixels are not square.*--resample-pixels"):
         read_surface(path)
     path.write_text("\n".join(f"{0.005 * i},{0.005 * j},1.0" for j in range(4) for i in range(4)))
     path.write_text(path.read_text() + "\n0.0,0.0,2.0\n")
@@ -196,7 +209,7 @@ def test_instrument_npy_samples_match_their_sq(name):
 def test_detrend_of_non_square_samples_matches_their_sq(name):
     raw = np.load(DATA / "instruments" / f"{name}.npy")
     sq = sample_json(f"instruments/{name}.npy")["stats_after_plane_detrend"]["Sq_rms_height_m"]
-    assert np.sqrt(np.nanmean(detrend_plane(raw) ** 2)) == pytest.approx(sq, rel=1e-3)
+    assert sq_after_detrend(raw) == pytest.approx(sq, rel=1e-3)
 
 
 @needs_data
@@ -257,6 +270,17 @@ def test_general_reader_errors(tmp_path):
         read_surface(path, size="3um", square="pad")
     with pytest.raises(InputError, match="unknown fill method"):
         read_surface(path, size="3um", fill="spline")
+    with pytest.raises(InputError, match="unknown pixels option"):
+        read_surface(path, size="3um", pixels="nearest")
+
+
+def test_heights_in_a_wrong_unit_are_refused_by_their_rms_slope(tmp_path):
+    path = tmp_path / "microns.npy"
+    np.save(path, asymmetric_field())  # um, read as metres: RMS slope ~ 1e5
+    with pytest.raises(InputError, match=r"RMS slope \S+ > 1: .*give --height-unit "):
+        read_surface(path, size="25um")
+    assert read_surface(path, size="25um", height_unit="um").n == 6
+    assert read_surface(path, size="25um", height_unit="m").n == 6  # the user says so
 
 
 # --- instrument formats through SurfaceTopography -----------------------------------------------
@@ -270,14 +294,96 @@ def test_instrument_format_without_the_extra_names_it(tmp_path, monkeypatch):
         read_surface(path)
 
 
+# Each raw instrument sample and the reader options it needs: x3p-2 has 0.128 um x 0.315 um
+# pixels, resampled to a 650 x 1602 grid; sur-2 and opd-1 have non-square grids with unmeasured
+# points (left in the crop), al3d-1 a non-square grid.
+INSTRUMENT_OPTIONS = {
+    "x3p-2.x3p": {"pixels": "resample", "square": "crop"},
+    "sur-2.sur": {"square": "crop", "fill": "nearest"},
+    "opd-1.opd": {"square": "crop", "fill": "nearest"},
+    "al3d-1.al3d": {"square": "crop"},
+    "di-3.di": {},
+}
+# What the refusal without an option names.
+OPTION_HINTS = {"pixels": "--resample-pixels", "square": "--crop", "fill": "fill="}
+
+
 @needs_data
-def test_instrument_file_matches_its_npy_conversion():
-    pytest.importorskip("SurfaceTopography")
-    surface = read_surface(DATA / "instruments" / "di-3.di")
-    meta = sample_json("instruments/di-3.npy")
-    assert surface.spacing == pytest.approx(meta["pixel_size_m"][0], rel=1e-9)
-    expected = detrend_plane(np.load(DATA / "instruments" / "di-3.npy"))
-    np.testing.assert_allclose(surface.heights, expected, rtol=0, atol=1e-6 * np.ptp(expected))
+@pytest.mark.parametrize("name", sorted(INSTRUMENT_OPTIONS))
+def test_instrument_file_matches_its_json(name):
+    meta = sample_json(f"instruments/{name}")
+    heights, dx, dy = read_heights(DATA / "instruments" / name)
+    assert list(heights.shape) == meta["nb_grid_pts"]
+    assert [dx, dy] == pytest.approx(meta["pixel_size_m"], rel=1e-12)
+    assert np.count_nonzero(np.isnan(heights)) == meta["undefined_points_as_nan"]
+    sq = meta["stats_after_plane_detrend"]["Sq_rms_height_m"]
+    assert sq_after_detrend(heights) == pytest.approx(sq, rel=1e-6)
+
+
+@needs_data
+@pytest.mark.parametrize("name", sorted(INSTRUMENT_OPTIONS))
+def test_instrument_file_loads_with_the_options_it_needs(name):
+    meta = sample_json(f"instruments/{name}")
+    surface = load_surface(str(DATA / "instruments" / name), **INSTRUMENT_OPTIONS[name])
+    assert surface.n == min(meta["nb_grid_pts"])
+    assert surface.spacing == pytest.approx(min(meta["pixel_size_m"]), rel=1e-12)
+    if not INSTRUMENT_OPTIONS[name]:  # the whole grid: the json's Sq
+        sq = meta["stats_after_plane_detrend"]["Sq_rms_height_m"]
+        assert rms_height(surface.heights) == pytest.approx(sq, rel=1e-6)
+
+
+@needs_data
+@pytest.mark.parametrize(
+    ("name", "option"),
+    [(name, option) for name, options in INSTRUMENT_OPTIONS.items() for option in options],
+)
+def test_instrument_file_without_an_option_it_needs_names_it(name, option):
+    options = {key: value for key, value in INSTRUMENT_OPTIONS[name].items() if key != option}
+    with pytest.raises(InputError, match=OPTION_HINTS[option]):
+        read_surface(DATA / "instruments" / name, **options)
+
+
+@needs_data
+@pytest.mark.parametrize("name", ["al3d-1.al3d", "di-3.di", "opd-1.opd", "sur-2.sur"])
+def test_instrument_file_matches_its_npy_conversion(name):
+    path = DATA / "instruments" / name
+    heights, _, _ = read_heights(path)
+    np.testing.assert_array_equal(heights, np.load(path.with_suffix(".npy")))  # NaN where NaN
+
+
+@needs_data
+def test_x3p_pixels_resampled_to_the_smaller_side_keep_size_and_sq():
+    meta = sample_json("instruments/x3p-2.x3p")
+    heights, h = square_pixels(*read_heights(DATA / "instruments" / "x3p-2.x3p"))
+    assert h == min(meta["pixel_size_m"]) and heights.shape == (650, 1602)
+    np.testing.assert_allclose(np.array(heights.shape) * h, meta["physical_sizes_m"], atol=h)
+    sq = meta["stats_after_plane_detrend"]["Sq_rms_height_m"]
+    assert sq_after_detrend(heights) == pytest.approx(sq, rel=1e-2)  # measured -0.11 %
+
+
+def test_square_pixels_interpolate_a_plane_and_keep_the_fine_axis():
+    dx, dy = 1e-6, 2.5e-6
+    i, j = np.indices((6, 4), dtype=float)
+    old = 3e-8 * (i + 0.5) + 5e-8 * (j + 0.5) * dy / dx  # plane through the pixel centres
+    old[2, 1] = np.nan
+    new, h = square_pixels(old, dx, dy)
+    k, m = np.indices((6, 10), dtype=float)
+    plane = 3e-8 * (k + 0.5) + 5e-8 * (m + 0.5)
+    assert h == dx and new.shape == (6, 10)
+    finite = np.isfinite(new)
+    assert np.array_equal(np.argwhere(~finite), [[2, col] for col in range(1, 6)])  # NaN's cells
+    inner = finite.copy()
+    inner[:, [0, -1]] = False  # centres beyond the outer old ones keep the edge value
+    np.testing.assert_allclose(new[inner], plane[inner], rtol=1e-12)
+
+
+@needs_data
+def test_cli_resample_pixels_flag_reaches_the_reader():
+    args = build_parser().parse_args(
+        ["surface", "stats", str(DATA / "instruments" / "x3p-2.x3p"), "--resample-pixels", "--crop"]
+    )
+    surface = surface_from_args(args)
+    assert surface.n == 650 and surface.spacing == pytest.approx(1.27656509837346e-07, rel=1e-12)
 
 
 # --- load_surface -------------------------------------------------------------------------------
@@ -293,6 +399,6 @@ def test_load_surface_builtin_accepts_default_options_only():
 def test_load_surface_reads_files_and_lists_names_when_unknown(tmp_path):
     path = tmp_path / "mine.npy"
     np.save(path, asymmetric_field())
-    assert load_surface(str(path), size="25um").name == "mine"
+    assert load_surface(str(path), size="25um", height_unit="um").name == "mine"
     with pytest.raises(InputError, match="neither a file nor a built-in.*G1.*63M"):
         load_surface(str(tmp_path / "missing.npy"))
