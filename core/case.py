@@ -29,9 +29,7 @@ class MeshOptions:
         Layers of thickness h (the grid spacing) over which the roughness fades to flat [-].
     fine_layers : int
         Layers at the full lateral resolution (thickness h) from the surface down, blend layers
-        included [-]; ``blend_layers`` if smaller. 4 against 6 (measured): N = 32, F* = 0.93,
-        run time -38 %, mu_s -0.10 % (G5) and +0.0005 % (8L); G5 at N = 128, F* = 0.155:
-        1196 s -> 654 s, mu_s 0.40937 -> 0.40955 (+0.04 %).
+        included [-]; ``blend_layers`` if smaller.
     coarsen : bool
         Below the fine layers, halve the lateral resolution level by level (2:1, hanging nodes
         tied exactly), while N stays divisible and at least 2 cells per side remain.
@@ -116,10 +114,8 @@ class SolverOptions:
         CG preconditioned by MUMPS Cholesky factors or by GAMG, or "auto": direct up to
         ``direct_limit`` reduced dofs.
     direct_limit : int
-        Largest reduced system solved directly by "auto" [dofs]. GAMG (built once, reused)
-        was faster already at N = 8 (G5, F* = 0.155: 1.2 s vs 1.4 s; N = 16: 3.1 s vs 8.7 s).
-        A nearly incompressible solid (nu -> 0.5) needs "direct": GAMG-preconditioned CG
-        then stalls.
+        Largest reduced system solved directly by "auto" [dofs]. A nearly incompressible solid
+        (nu -> 0.5) needs "direct": GAMG-preconditioned CG then stalls.
     residual_tolerance : float
         Newton: ||R|| and |sum p a - F_n| below this times F_n [-].
     increment_tolerance : float

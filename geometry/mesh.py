@@ -141,6 +141,25 @@ def layer_layout(n: int, spacing: float, options: MeshOptions) -> tuple[np.ndarr
     return layer_z, np.array(strides[::-1])
 
 
+def mesh_size(n: int, options: MeshOptions) -> tuple[int, int]:
+    """Hexahedra and reduced dofs (3 per node above the bottom that is neither a periodic image
+    nor hanging) of the block under an n x n surface, without building it."""
+    _, layer_stride = layer_layout(n, 1.0, options)
+    cells = int(sum((n // stride) ** 2 for stride in layer_stride))
+    return cells, int(3 * sum((n // stride) ** 2 for stride in layer_stride))
+
+
+#: Peak memory of a run, summed over ranks: MEMORY_PER_RANK_GB per rank plus MEMORY_PER_DOF_GB
+#: per reduced dof [GB] (an upper fit of ``make bench-fem``, N = 32-128 on 1 and 2 ranks).
+MEMORY_PER_RANK_GB = 0.2
+MEMORY_PER_DOF_GB = 12e-6
+
+
+def estimated_memory_gb(n: int, options: MeshOptions, ranks: int) -> float:
+    """Peak memory of an FEM run on an n x n surface, summed over ``ranks`` ranks [GB]."""
+    return ranks * MEMORY_PER_RANK_GB + MEMORY_PER_DOF_GB * mesh_size(n, options)[1]
+
+
 def node_layer_stride(layer_stride: np.ndarray) -> np.ndarray:
     """Lateral node spacing of each node layer [grid spacings], bottom to top: that of the cell
     layer above it (the finer one), the top layer's for the surface."""

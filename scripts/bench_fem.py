@@ -1,6 +1,6 @@
 """FEM benchmark: G5 at F* = 0.155 on N x N surface grids, each run by ``mpirun`` as the CLI.
 
-    python -m solver.benchmark --n 32 64 128 --ranks 2
+    roughfriction bench fem --n 32 64 128 --ranks 2
 
 Writes ``results/bench/fem.csv`` (one row per N and rank count, rewritten after every run so that
 finished rows survive a later failure; rows of other N or rank counts already in the file are
@@ -28,7 +28,7 @@ COLUMNS = ("n", "ranks", "cells", "reduced_dofs", "linear_solver", "wall_s", "pe
 
 
 def run_size(n: int, ranks: int) -> dict:
-    """Run one grid size through ``python -m solver.command`` under mpirun; return its row."""
+    """Run one grid size through ``roughfriction.scripts.fem`` under mpirun; return its row."""
     output = BENCH_DIR / f"fem_{SURFACE}_N{n}_{ranks}ranks.h5"
     command = ["mpirun", "-n", str(ranks), "--oversubscribe", sys.executable, "-m",
                "roughfriction.scripts.fem", SURFACE, "--load", str(LOAD), "--n", str(n), "--json",

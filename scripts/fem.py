@@ -1,6 +1,6 @@
 """The ``fem`` command: deterministic FEM of a rough surface pressed and slid by a rigid flat.
 
-    mpirun -n 2 python -m solver.command G5 --load 0.155 --n 32 --json
+    mpirun -n 2 roughfriction fem G5 --load 0.155 --n 32 --json
 
 Grid: ``--n N`` is the number of surface cells per side of the FEM block (its top has N x N
 cells on (N + 1)^2 nodes, the last row and column closing the surface periodically, as in the
@@ -76,8 +76,11 @@ def read_config(path: str | None) -> dict:
     return config
 
 
-def case_from_args(args, surface: Surface) -> FemCase:
-    """Build the FemCase from flags over the case file."""
+def case_from_args(args, surface: Surface, comm=None) -> FemCase:
+    """Build the FemCase from flags over the case file; with ``comm`` (the run's
+    communicator), refuse an ``--n`` whose run would not fit in memory before re-gridding."""
+    if comm is not None:
+        from roughfriction.solver.run import check_memory
     config = read_config(args.config)
 
     def setting(name):
@@ -91,11 +94,18 @@ def case_from_args(args, surface: Surface) -> FemCase:
     if setting("elastic") is not None:
         solver["elastic"] = bool(setting("elastic"))
     try:
+        mesh = MeshOptions(**config.get("mesh", {}))
+        n = setting("n")
+        if n is not None:
+            if isinstance(n, bool) or not isinstance(n, int) or n < 4:
+                raise InputError(f"--n must be an integer >= 4, got {n!r}")
+            if comm is not None:
+                check_memory(n * (2 if getattr(args, "refine", False) else 1), mesh, comm)
         return FemCase(
-            surface=surface_on_fem_grid(surface, setting("n")),
+            surface=surface_on_fem_grid(surface, n),
             loading=Loading(float(load), normal_only=bool(setting("normal_only"))),
             material=Material(**config.get("material", {})),
-            mesh=MeshOptions(**config.get("mesh", {})),
+            mesh=mesh,
             solver=SolverOptions(**solver),
         )
     except TypeError as error:
@@ -127,7 +137,7 @@ def run_fem(args) -> dict:
     from roughfriction.solver.run import run
 
     comm = MPI.COMM_WORLD
-    case = case_from_args(args, surface_from_args(args))
+    case = case_from_args(args, surface_from_args(args), comm)
     output = Path(args.output) if args.output else default_output(case)
     outcome = run(case, comm, xdmf_directory=args.xdmf)
     if not args.refine:
@@ -164,7 +174,7 @@ def _check_converged(outcome, output: Path) -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """``python -m solver.command ARGS``: the same as ``roughfriction fem ARGS``."""
+    """``python -m roughfriction.scripts.fem ARGS``: the same as ``roughfriction fem ARGS``."""
     from roughfriction.scripts.cli import main as cli_main
 
     return cli_main(["fem", *(sys.argv[1:] if argv is None else argv)])

@@ -1,6 +1,6 @@
 """FEM runs drawn as the paper's Figs. 8–10, 15, 20, 21 and 29: contact maps, patch counts,
 contact area and tangential load along the loading. Values come from the runs' results files
-through ``solver.post``; a run whose preload (or sliding) did not finish gives NaN there."""
+through ``studies.post``; a run whose preload (or sliding) did not finish gives NaN there."""
 
 import numpy as np
 from roughfriction.geometry.generate import builtin_surface

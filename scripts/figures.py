@@ -3,8 +3,8 @@
 A theory figure module defines ``make() -> (matplotlib Figure, dict of equal-length columns)``.
 A FEM figure module also defines ``fem_cases(n) -> list of FemCase`` (the runs it needs on an
 n x n FEM grid) and draws with ``make(runs)``, ``runs`` being the runs' results files
-(:class:`solver.post.RunFile`) in the order of its cases; the runs come from the run cache
-(``solver.cache``, computed on every MPI rank when missing), and only rank 0 draws.
+(:class:`studies.post.RunFile`) in the order of its cases; the runs come from the run cache
+(``studies.cache``, computed on every MPI rank when missing), and only rank 0 draws.
 ``make_figure`` writes ``figures/figNN.png`` and the data behind it, ``figures/figNN.csv``,
 each atomically (a killed run never leaves a half-written file under the final name).
 """
@@ -66,7 +66,7 @@ def fem_runs(module, n: int | None = None, runs_directory=None) -> list | None:
     n : int, optional
         Surface cells per side (default :func:`scripts.cases.fem_resolution`).
     runs_directory : str or pathlib.Path, optional
-        The run cache (default :func:`solver.cache.runs_directory`).
+        The run cache (default :func:`studies.cache.runs_directory`).
     """
     from mpi4py import MPI
     from roughfriction.studies.cache import cached_results

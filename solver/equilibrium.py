@@ -40,15 +40,12 @@ STAGNATION_WINDOW = 4
 #: Newton iterations with the contact law free; then the contact set is frozen (a smooth
 #: problem: no open/closed cycling) until the iterate converges; it is accepted if it also
 #: meets the tolerances under the law itself, else the set is re-frozen at the law's set there
-#: (a primal active-set strategy). Freezing the slip set too was measured worse (G5, N = 32:
-#: 8 cut steps, 46 s against 2 and 31 s): a frozen slipping node below the cap has a traction
-#: direction that jumps with a tiny trial vector [-].
+#: (a primal active-set strategy). The slip set is not frozen: a frozen slipping point below
+#: the cap has a traction direction that jumps with a tiny trial vector [-].
 FREEZE_AFTER = 3
 #: Active-set rounds (freezes) per Newton solve [-]. Each round has its own budget of
 #: ``max_iterations``, and a new round is started only while fewer nodes change their contact
-#: state than at the last one (no cycling). With one budget for all rounds the first preload
-#: step of G5 at N = 128 was cut twice while its rounds converged (contact changes 184 -> 73
-#: -> ..., residual 3e-8 F_n at the 15th iteration).
+#: state than at the last one (no cycling).
 MAX_ROUNDS = 5
 #: Krylov tolerance = FORCING_FACTOR x (||R|| + |r|) / F_n, clipped to [FORCING_MIN, FORCING_MAX].
 FORCING_FACTOR = 0.1
@@ -72,6 +69,8 @@ class NewtonReport:
         Final ||R|| / F_n [-].
     contact : ContactResponse
         Contact state at the final iterate.
+    reason : str
+        Why it did not converge ("" if it did).
     """
 
     converged: bool
@@ -79,6 +78,7 @@ class NewtonReport:
     krylov_iterations: int
     residual: float
     contact: ContactResponse
+    reason: str = ""
 
 
 @dataclass(frozen=True)
@@ -203,10 +203,8 @@ class Equilibrium:
     def assemble_tangent(self, contact: ContactResponse) -> None:
         """K = P^T (K_elastic + K_plastic) P plus the contact's 3 x 3 blocks of each surface node
         and its 9 neighbours, at the iterate of the last :meth:`assemble` (whose ``contact``
-        response is passed).
-
-        (MatAXPY of a separate block-diagonal contact matrix was measured to leak ~0.6 MB per
-        call with PETSc 3.18; the blocks are set in place instead.)
+        response is passed). The contact blocks are set in place (MatAXPY of a separate
+        contact matrix leaks memory in PETSc 3.18).
         """
         self._elastic_tangent.copy(self._tangent_full,
                                    structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
@@ -252,8 +250,13 @@ class Equilibrium:
             if not report.converged or penetration <= tolerance:
                 break
             self.flat.augment(report.contact)
-        converged = report.converged and penetration <= tolerance
-        return NewtonReport(converged, iterations, krylov, report.residual, report.contact)
+        reason = report.reason
+        if report.converged and penetration > tolerance:
+            reason = (f"penetration {penetration / self.spacing:.2e} h > tolerance "
+                      f"{self.options.penetration_tolerance:.0e} h after "
+                      f"{self.options.max_augmentations} multiplier updates")
+        return NewtonReport(not reason, iterations, krylov, report.residual, report.contact,
+                            reason)
 
     def _newton(self, normal_force: float, flat_slide: float, friction: bool,
                 predictor: bool) -> NewtonReport:
@@ -267,6 +270,8 @@ class Equilibrium:
         increment, krylov = 0.0, 0
         history = []
         rounds, changes, limit = 0, np.inf, self.options.max_iterations
+        reason = ""
+
         def converged(state: _Iterate) -> bool:
             return (not predictor and state.residual <= tolerance_force
                     and abs(state.force_error) <= tolerance_force
@@ -283,6 +288,8 @@ class Equilibrium:
                     previous, changes = changes, self.flat.count(
                         state.contact.in_contact != frozen)
                     if changes >= previous or rounds == MAX_ROUNDS:
+                        reason = (f"contact set cycling ({changes} points change state after "
+                                  f"{rounds} frozen round(s))")
                         break
                     self._active = state.contact.in_contact
                     rounds += 1
@@ -294,9 +301,18 @@ class Equilibrium:
             history.append(state.residual + abs(state.force_error))
             stagnating = (len(history) > STAGNATION_WINDOW + 2
                           and history[-1] > 0.5 * history[-1 - STAGNATION_WINDOW])
-            if not np.isfinite(state.merit) or stagnating:
+            if not np.isfinite(state.merit):
+                reason = "residual not finite"
+                break
+            if stagnating:
+                reason = (f"residual not halved in {STAGNATION_WINDOW} iterations (stick/slip "
+                          "or open/closed cycling)")
                 break
             if iteration == limit:
+                reason = (f"iteration limit {self.options.max_iterations} (residual "
+                          f"{state.residual / normal_force:.1e} F_n, force error "
+                          f"{abs(state.force_error) / normal_force:.1e} F_n, last increment "
+                          f"{increment / self.spacing:.1e} h)")
                 break
             if self.flat.count(state.contact.in_contact) == 0:
                 self.place_flat(normal_force)
@@ -311,7 +327,8 @@ class Equilibrium:
             try:
                 height_increment, its = self._bordered_solve(
                     state.force_error, forcing_term(state, normal_force))
-            except LinearSolveError:
+            except LinearSolveError as error:
+                reason = str(error)
                 break
             krylov += its
             step, state = self._line_search(height_increment, state, normal_force,
@@ -319,7 +336,8 @@ class Equilibrium:
             increment = step * self._x1.norm(PETSc.NormType.NORM_INFINITY)
             predictor = False
         self._active = None
-        return NewtonReport(False, iteration, krylov, state.residual / normal_force, state.contact)
+        return NewtonReport(False, iteration, krylov, state.residual / normal_force, state.contact,
+                            reason)
 
     def _evaluate(self, normal_force: float, flat_slide: float, friction: bool,
                   predictor: bool) -> _Iterate:
@@ -353,8 +371,6 @@ class Equilibrium:
         force-controlled step can push open nodes deep into the flat (the penalty is ~10x
         stiffer than the solid) and oscillate. The tangential predictor's step is always taken
         (its residual is not comparable). Returns the accepted step length and the iterate there.
-        (Also measured: cutting the step so that no open node penetrates deeper than the deepest
-        contact node changed neither Newton iterations nor step cuts on G5 at N = 16.)
         """
         step = 1.0
         self.displacement.axpy(step, self._x1)
@@ -376,6 +392,19 @@ class Equilibrium:
         self.flat_height = self.flat.touching_height(
             self.solid.displacement.x.array.reshape(-1, 3), normal_force,
             self.solid.material.E_star)
+
+    def destroy(self) -> None:
+        """Free this model's PETSc objects (matrices, vectors, the KSP, P): petsc4py 3.18 does
+        not free objects that reference each other, so a batch of runs in one process would
+        keep every finished run's memory. The model is unusable afterwards."""
+        committed = [self._committed[0]] + ([self._previous[0]] if self._previous else [])
+        for item in (self.displacement, *committed, self._elastic_tangent, self._tangent_full,
+                     self._residual_full, self.tangent, self.residual, self._height_column,
+                     self._force_row, self._x1, self._x2, self._near_nullspace):
+            if item is not None:
+                item.destroy()
+        self.linear_solver.destroy()
+        self.reduction.destroy()
 
     # --- history ----------------------------------------------------------------------------
 

@@ -35,6 +35,15 @@ class LinearSolveError(RuntimeError):
 #: CG failures that GMRES, which needs neither a definite operator nor preconditioner, may cure.
 INDEFINITE = (PETSc.KSP.ConvergedReason.DIVERGED_INDEFINITE_PC,
               PETSc.KSP.ConvergedReason.DIVERGED_INDEFINITE_MAT)
+
+
+def converged_reason_name(reason: int) -> str:
+    """PETSc's name of a KSP converged reason (e.g. -3 -> "DIVERGED_ITS")."""
+    names = {value: name for name, value in vars(PETSc.KSP.ConvergedReason).items()
+             if isinstance(value, int) and name.isupper()}
+    return names.get(reason, str(reason))
+
+
 #: Rebuild the reused GAMG hierarchy when the iterations grow past this factor [-].
 REBUILD_FACTOR = 1.5
 #: Refactorise the reused Cholesky factors when CG needs more iterations than this [-].
@@ -117,12 +126,18 @@ class LinearSolver:
             self.ksp.setInitialGuessNonzero(False)
             self._apply(rhs, solution, fresh=False)
         if self.ksp.getConvergedReason() < 0:
-            raise LinearSolveError(f"linear solver failed ({self.method}, reason "
-                                   f"{self.ksp.getConvergedReason()})")
+            reason = self.ksp.getConvergedReason()
+            raise LinearSolveError(f"Krylov solver {self.ksp.getType()} ({self.method}) "
+                                   f"{converged_reason_name(reason)} ({reason}) after "
+                                   f"{self.ksp.getIterationNumber()} iterations")
         self.last_iterations = max(self.ksp.getIterationNumber(), 1)
         if fresh:
             self._fresh_iterations = self.last_iterations
         return self.last_iterations
+
+    def destroy(self) -> None:
+        """Free the KSP (petsc4py does not free PETSc objects that reference each other)."""
+        self.ksp.destroy()
 
     def _apply(self, rhs: PETSc.Vec, solution: PETSc.Vec, fresh: bool) -> None:
         """One KSP solve, rebuilding the preconditioner if ``fresh``."""

@@ -123,6 +123,10 @@ class PeriodicReduction:
         P.assemble()
         return P
 
+    def destroy(self) -> None:
+        """Free P."""
+        self.P.destroy()
+
     def create_reduced_vector(self) -> PETSc.Vec:
         """A zero vector in the reduced layout (block size 3)."""
         vector = self.P.createVecRight()

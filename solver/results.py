@@ -64,7 +64,7 @@ class StepRecord:
     wall_s: float
     cuts: int = 0
 
-    def summary(self) -> str:
+    def __str__(self) -> str:
         """One progress line."""
         return (f"{self.phase:10s} Fn={self.normal_force:.5e} N Ft={self.tangential_force:.5e} N "
                 f"ux={self.slide:.4e} m Ar/An={self.area_ratio:.4f} nodes={self.contact_nodes} "

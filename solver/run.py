@@ -4,6 +4,7 @@ every contact node slips -> report."""
 
 from __future__ import annotations
 
+import math
 import resource
 import sys
 import time
@@ -13,12 +14,14 @@ from pathlib import Path
 
 import numpy as np
 from mpi4py import MPI
-from roughfriction.case import FemCase, Loading
-from roughfriction.geometry.mesh import Block, build_block
+from roughfriction.case import FemCase, Loading, MeshOptions
+from roughfriction.errors import InputError
+from roughfriction.geometry.mesh import Block, build_block, estimated_memory_gb, mesh_size
 from roughfriction.solver.contact import ContactResponse, RigidFlat
 from roughfriction.solver.equilibrium import Equilibrium
 from roughfriction.solver.fields import FieldWriter
 from roughfriction.solver.periodic import PeriodicReduction, dof_node_grid_index
+from roughfriction.solver.progress import LoadStarted, RunStarted
 from roughfriction.solver.results import FemResult
 from roughfriction.solver.solid import Solid
 from roughfriction.solver.stepping import LoadPath, Outcome
@@ -54,11 +57,38 @@ def peak_memory_gb() -> float:
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2**20
 
 
+def available_memory_gb(comm: MPI.Comm) -> float:
+    """Memory available to new allocations on the nodes that ``comm``'s ranks run on (Linux
+    MemAvailable, each node counted once) [GB]; infinite where it cannot be read."""
+    node = comm.Split_type(MPI.COMM_TYPE_SHARED)
+    available = 0.0
+    if node.rank == 0:
+        try:
+            meminfo = Path("/proc/meminfo").read_text().splitlines()
+            line = next(line for line in meminfo if line.startswith("MemAvailable:"))
+            available = int(line.split()[1]) / 2**20  # kB -> GB
+        except (OSError, StopIteration, ValueError):
+            available = math.inf
+    node.Free()
+    return comm.allreduce(available, op=MPI.SUM)
+
+
+def check_memory(n: int, options: MeshOptions, comm: MPI.Comm) -> None:
+    """Refuse, before allocating anything, an n x n surface whose FEM block would not fit in
+    the memory available to the run (:func:`geometry.mesh.estimated_memory_gb`)."""
+    needed = estimated_memory_gb(n, options, comm.size)
+    available = available_memory_gb(comm)
+    if needed > available:
+        raise InputError(f"N = {n}: the FEM run needs about {needed:.3g} GB "
+                         f"({mesh_size(n, options)[1]:.3g} dofs), {available:.3g} GB are "
+                         "available; use a smaller --n or more nodes")
+
+
 def stderr_progress(comm):
-    """A progress printer: one line to stderr, from rank 0 only."""
-    def progress(line: str) -> None:
+    """A progress printer: each record as its line of text on stderr, from rank 0 only."""
+    def progress(record) -> None:
         if comm.rank == 0:
-            print(line, file=sys.stderr, flush=True)
+            print(record, file=sys.stderr, flush=True)
     return progress
 
 
@@ -104,7 +134,8 @@ def run(case: FemCase, comm: MPI.Comm = MPI.COMM_WORLD, progress=None,
     comm : mpi4py.MPI.Comm
         Communicator.
     progress : callable, optional
-        Receives one text line per step; default: stderr on rank 0.
+        Receives the run's progress records (:mod:`roughfriction.solver.progress`, a
+        ``StepRecord`` per step; ``str()`` gives the line); default: stderr on rank 0.
     xdmf_directory : str or pathlib.Path, optional
         Write fields (end of preload, inception) to ``fields.xdmf`` there.
 
@@ -138,7 +169,8 @@ def run_loads(case: FemCase, loads: Sequence[float], comm: MPI.Comm = MPI.COMM_W
     comm : mpi4py.MPI.Comm
         Communicator; every rank takes part.
     progress : callable, optional
-        Receives one text line per step; default: stderr on rank 0.
+        Receives the run's progress records (:mod:`roughfriction.solver.progress`, a
+        ``StepRecord`` per step; ``str()`` gives the line); default: stderr on rank 0.
     xdmf_directory : str or pathlib.Path, optional
         Fields of a single load go to ``DIRECTORY/fields.xdmf``; of several loads to
         ``DIRECTORY/F<F*>/fields.xdmf``.
@@ -155,6 +187,7 @@ def run_loads(case: FemCase, loads: Sequence[float], comm: MPI.Comm = MPI.COMM_W
     progress = progress or stderr_progress(comm)
     started = time.perf_counter()
     surface = case.surface
+    check_memory(surface.n, case.mesh, comm)
     block = build_block(surface.heights, surface.spacing, case.mesh, comm)
     solid = Solid(block.mesh, case.material, case.solver.elastic, case.solver.integration)
     reduction = PeriodicReduction(solid.V, block)
@@ -168,9 +201,8 @@ def run_loads(case: FemCase, loads: Sequence[float], comm: MPI.Comm = MPI.COMM_W
         "linear_solver": equilibrium.linear_solver.method,
         "ranks": comm.size,
     }
-    progress(f"FEM {surface.name or 'surface'}: N={block.n}, {sizes['cells']} hexahedra in "
-             f"{block.num_layers} layers, {sizes['reduced_dofs']} dofs, "
-             f"{sizes['linear_solver']} solver, {comm.size} rank(s)")
+    progress(RunStarted(surface.name or "surface", block.n, sizes["cells"], block.num_layers,
+                        sizes["reduced_dofs"], sizes["linear_solver"], comm.size))
     setup_s = time.perf_counter() - started
 
     path = LoadPath(equilibrium, case, block.depth, progress)
@@ -181,7 +213,7 @@ def run_loads(case: FemCase, loads: Sequence[float], comm: MPI.Comm = MPI.COMM_W
     for position, index in enumerate(order):
         load_case = replace(case, loading=Loading(loads[index], case.loading.normal_only))
         if len(loads) > 1:
-            progress(f"load F* = {loads[index]:g}")
+            progress(LoadStarted(loads[index]))
         directory = xdmf_directory
         if directory is not None and len(loads) > 1:
             directory = Path(directory) / f"F{loads[index]:g}"

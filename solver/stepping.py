@@ -16,14 +16,11 @@ import numpy as np
 from roughfriction.case import FemCase
 from roughfriction.solver.contact import ContactResponse
 from roughfriction.solver.equilibrium import Equilibrium, NewtonReport
+from roughfriction.solver.progress import StepCut
 from roughfriction.solver.results import StepRecord, count_patches
 
 GROWTH = 1.5
-#: Grow the step after at most this many Newton iterations [-]. 6 kept the slide increments of
-#: 2L at F* = 0.62 (N = 32), whose steps all take 10-15 iterations while ~500 nodes go from
-#: stick to slip, at ~1 % of tau_c H / G: after 80 s 309 of 473 nodes slipped, F_t still
-#: rising. With 10: inception in 31 s, mu_s 0.4601 against 0.4536 with a 4x smaller largest
-#: slide increment (1.4 %, 122 s). (All measured before the stick penalty eps_T = eps_N / 10.)
+#: Grow the step after at most this many Newton iterations [-].
 EASY_ITERATIONS = 10
 MIN_FRACTION = 1e-3
 #: Largest preload increment as a fraction of F_n [-] (the plastic path is load-dependent;
@@ -88,7 +85,8 @@ class LoadPath:
     depth : float
         Block depth H [m].
     progress : callable
-        Called with one line of text per step (rank 0 prints it).
+        Receives a :class:`StepRecord` per converged step and a
+        :class:`~roughfriction.solver.progress.StepCut` per failed one.
     """
 
     def __init__(self, equilibrium: Equilibrium, case: FemCase, depth: float, progress):
@@ -143,7 +141,7 @@ class LoadPath:
             if not report.converged:
                 if not size.cut():
                     return Outcome(False, f"preload did not converge beyond {start:.4g} x F_n "
-                                          f"(Newton residual {report.residual:.2e} F_n)")
+                                          f"({report.reason})")
                 continue
             # (not from the unloaded state: there the flat's height is not on the load path)
             last_increment = trial * target - self.normal_force if self.normal_force else None
@@ -167,7 +165,7 @@ class LoadPath:
             if not report.converged:
                 if not size.cut():
                     return Outcome(False, f"tangential step did not converge at u_x = {slide:.4g}"
-                                          f" m (Newton residual {report.residual:.2e} F_n)")
+                                          f" m ({report.reason})")
                 continue
             slide = trial
             record = self._accept("tangential", report, slide)
@@ -188,8 +186,8 @@ class LoadPath:
         report = self.equilibrium.solve(normal_force, slide, friction)
         if not report.converged:
             self.equilibrium.restore()
-            self.progress(f"  step cut (Newton {report.iterations} its, residual "
-                          f"{report.residual:.2e} F_n)")
+            self.progress(StepCut("tangential" if friction else "normal", report.iterations,
+                                  report.residual, report.reason))
         return report
 
     def _accept(self, phase: str, report: NewtonReport, slide: float) -> StepRecord:
@@ -217,5 +215,5 @@ class LoadPath:
             cuts=self.attempts - 1 - sum(record.cuts + 1 for record in self.records),
         )
         self.records.append(record)
-        self.progress(record.summary())
+        self.progress(record)
         return record

@@ -1,6 +1,6 @@
-"""Batches of FEM runs for the benchmarks (:mod:`solver.convergence`, :mod:`solver.stress`).
+"""Batches of FEM runs for the benchmarks (:mod:`studies.convergence`, :mod:`studies.stress`).
 
-Every run goes through the run cache (:func:`solver.cache.cached_results`), one cache call per
+Every run goes through the run cache (:func:`studies.cache.cached_results`), one cache call per
 group of runs that differ only in the load (they share one normal loading path), the groups of
 the smallest surface grids first. Before each group the peak resident memory of every rank is
 reset, so that the ``peak_memory_gb`` a run records is that of its own group, not of the
@@ -69,7 +69,7 @@ def reset_peak_memory() -> bool:
 
 
 def batch_groups(cases: Sequence[FemCase]) -> list[list[int]]:
-    """Indices of ``cases`` grouped by everything but the load (:func:`solver.cache.group_key`),
+    """Indices of ``cases`` grouped by everything but the load (:func:`studies.cache.group_key`),
     the groups ordered by surface cells per side N (smallest first), then by first appearance.
     """
     groups: dict[str, list[int]] = {}
@@ -89,7 +89,7 @@ def compute_batch(cases: Sequence[FemCase], comm, directory=None,
     comm : mpi4py.MPI.Comm
         Every rank computes; call on all of them.
     directory : str or pathlib.Path, optional
-        The run cache (default :func:`solver.cache.runs_directory`).
+        The run cache (default :func:`studies.cache.runs_directory`).
     progress : callable, optional
         Receives the progress lines (rank 0); default stderr.
 
@@ -151,14 +151,14 @@ def summary_columns(run) -> dict:
 
     Parameters
     ----------
-    run : solver.post.RunFile or None
+    run : studies.post.RunFile or None
         The run (None: it did not start).
 
     Returns
     -------
     dict
         :data:`SUMMARY_COLUMNS` from the run's summary (None where absent), ``message``,
-        ``note`` (:attr:`solver.post.RunFile.note`), ``wall_s`` (total wall time [s]),
+        ``note`` (:attr:`studies.post.RunFile.note`), ``wall_s`` (total wall time [s]),
         ``peak_memory_gb`` (summed over ranks [GB]) and
         ``ranks``.
     """

@@ -8,7 +8,7 @@ format. The number of MPI
 ranks is not part of it: runs agree to 1e-6 across rank counts (``tests/test_solver_mpi.py``).
 
 An entry is finished when its file exists under its final name. Entries are written by
-:func:`solver.command.save_run` (temporary file, then rename), each as soon as its run ends, so
+:func:`solver.results.save_run` (temporary file, then rename), each as soon as its run ends, so
 a killed batch loses at most the run in progress and a half-written file is never read as a
 result. Unconverged runs are entries too (a rerun would repeat them); delete the file to retry.
 A run that fails on a normal path shared with smaller loads is run once more on its own path
@@ -16,9 +16,9 @@ A run that fails on a normal path shared with smaller loads is run once more on 
 attribute that says so (``roughfriction post``, the runs table and the stress matrix show it).
 
 A normal-only case is also answered by the finished sliding run of the same case: its preload is
-the same computation (read it with :func:`solver.post.preload_state`).
+the same computation (read it with :func:`studies.post.preload_state`).
 
-    python -m solver.cache G5 --load 0.155 0.62 --n 16     # fill the cache, print the paths
+    python -m studies.cache G5 --load 0.155 0.62 --n 16     # fill the cache, print the paths
 
 Imports without dolfinx; the FEM stack is imported when a run is computed.
 """
@@ -30,7 +30,6 @@ import hashlib
 import importlib.util
 import json
 import os
-import re
 import sys
 import time
 from collections.abc import Callable, Sequence
@@ -38,6 +37,7 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 
 from roughfriction.case import FemCase, Loading
+from roughfriction.solver.results import StepRecord
 
 #: Environment variable naming the cache directory (default ``results/runs``).
 RUNS_VARIABLE = "ROUGHFRICTION_RUNS"
@@ -55,13 +55,10 @@ PHYSICS_MODULES = (
     "roughfriction.solver.results",
 )
 #: Modules of the solver package that do not change results (field output, progress).
-SOLVER_OUTPUT_MODULES = ("roughfriction.solver", "roughfriction.solver.fields")
+SOLVER_OUTPUT_MODULES = ("roughfriction.solver", "roughfriction.solver.fields",
+                         "roughfriction.solver.progress")
 #: Layout version of an entry (bumped when what an entry holds changes).
 ENTRY_FORMAT = 1
-
-STEP_LINE = re.compile(r"\s*(?P<phase>\w+)\s+Fn=(?P<fn>\S+) N Ft=(?P<ft>\S+) N .*"
-                       r"newton=(?P<newton>\d+)")
-
 
 # --- keys ------------------------------------------------------------------------------------
 
@@ -236,18 +233,18 @@ class RunReporter:
     def prefix(self) -> str:
         return f"[{self.done + 1}/{self.total}] {self.label}"
 
-    def step(self, line: str) -> None:
-        """A line from the FEM run (``progress`` of :func:`solver.run.run_loads`)."""
-        match = STEP_LINE.match(line)
-        if match is None:
-            self.write(f"{self.prefix}: {line.strip()}")
+    def step(self, record) -> None:
+        """A progress record of the FEM run (``progress`` of :func:`solver.run.run_loads`):
+        a step record or another event, shown as its text."""
+        if not isinstance(record, StepRecord):
+            self.write(f"{self.prefix}: {str(record).strip()}")
             return
         self.steps += 1
-        newton = int(match["newton"])
-        self.iterations += newton
-        ratio = float(match["ft"]) / float(match["fn"]) if float(match["fn"]) else float("nan")
-        self.write(f"{self.prefix}: step {self.steps} {match['phase']} Ft/Fn={ratio:.4f} "
-                   f"newton {newton} ({self.iterations} in run)")
+        self.iterations += record.newton_iterations
+        ratio = (record.tangential_force / record.normal_force if record.normal_force
+                 else float("nan"))
+        self.write(f"{self.prefix}: step {self.steps} {record.phase} Ft/Fn={ratio:.4f} "
+                   f"newton {record.newton_iterations} ({self.iterations} in run)")
 
     def finished(self, summary: dict) -> None:
         """A run ended with this summary (``FemResult.summary()``)."""
@@ -357,7 +354,7 @@ def cached_results(cases: Sequence[FemCase], comm=None, progress=None,
 
 def _compute_group(group: RunGroup, comm, reporter: RunReporter) -> None:
     """Run one group, writing each entry as soon as its run ends; then free its PETSc objects
-    (:func:`release_petsc_objects`). A run past the first that failed on the shared normal path
+    (:func:`release`). A run past the first that failed on the shared normal path
     is run again alone (:func:`_compute_alone`)."""
     from roughfriction.solver.results import save_run
     from roughfriction.solver.run import run_loads
@@ -372,7 +369,7 @@ def _compute_group(group: RunGroup, comm, reporter: RunReporter) -> None:
     runs = run_loads(group.cases[0], group.loads, comm, reporter.step, finished=finished)
     failed = [(index, run.result.message) for index, run in enumerate(runs)
               if index > 0 and not run.result.converged]
-    release_petsc_objects(runs)
+    release(runs)
     for index, message in failed:
         _compute_alone(group.cases[index], group.paths[index], message, comm, reporter)
 
@@ -384,9 +381,7 @@ def _compute_alone(case: FemCase, path: Path, message: str, comm,
 
     A shared path reaches a load through the preload steps of the smaller loads, a standalone
     path through its own: the states differ at step level (plastic path dependence), so a
-    stick/slip cycle that stalls one may not arise on the other (G4 at F* = 0.62, N = 32:
-    its sliding stalled at u_x = 1.01e-6 m with one node cycling between stick and slip on the
-    shared path; alone it converges, mu_s 0.6711).
+    stick/slip cycle that stalls one may not arise on the other.
     """
     from roughfriction.solver.results import save_run
     from roughfriction.solver.run import run_loads
@@ -399,40 +394,11 @@ def _compute_alone(case: FemCase, path: Path, message: str, comm,
         reporter.finished(fem_run.result.summary())
 
     reporter.again(case, "shared normal path failed; running it alone")
-    release_petsc_objects(run_loads(case, [case.loading.load_star], comm, reporter.step,
-                                    finished=finished))
+    release(run_loads(case, [case.loading.load_star], comm, reporter.step, finished=finished))
 
 
-def release_petsc_objects(root) -> int:
-    """Destroy every PETSc object reachable from ``root`` through lists, tuples, dicts and the
-    attributes of roughfriction's own objects (``solver.*``, ``geometry.*``); return how many.
-
-    petsc4py 3.18 does not free PETSc objects that reference each other (a KSP its operators
-    and preconditioner, a matrix its near-nullspace) when Python drops them: in one process,
-    every finished run left its matrices, vectors and solver behind (a G5 run at N = 8 ~6 MB,
-    an elastic sinusoid at N = 32 0.1-0.3 GB on 2 ranks), so a batch's memory grew run by run.
-    Called (collectively, on every rank) once a group's entries are written; the runs' objects
-    are unusable afterwards. It walks the run's objects from here rather than giving each
-    owner a ``destroy`` method because those owners are physics modules: editing them would
-    change :func:`physics_version` and discard every cached run, though no result changes.
-    """
-    from petsc4py import PETSc
-
-    seen: set[int] = set()
-    pending, destroyed = [root], 0
-    while pending:
-        item = pending.pop()
-        if id(item) in seen:
-            continue
-        seen.add(id(item))
-        if isinstance(item, PETSc.Object):
-            item.destroy()
-            destroyed += 1
-        elif isinstance(item, (list, tuple)):
-            pending.extend(item)
-        elif isinstance(item, dict):
-            pending.extend(item.values())
-        elif type(item).__module__.startswith("roughfriction.") and hasattr(
-                item, "__dict__"):
-            pending.extend(vars(item).values())
-    return destroyed
+def release(runs) -> None:
+    """Free the PETSc objects of the model the runs of one :func:`solver.run.run_loads` call
+    share (collectively, on every rank), once their entries are written."""
+    if runs:
+        runs[0].equilibrium.destroy()

@@ -1,8 +1,8 @@
 """Run time against error of the FEM (``make bench-error``, part of ``make bench``).
 
-    mpirun -n 2 python -m solver.convergence              # the tables below
-    mpirun -n 2 python -m solver.convergence --quick      # N = 8 and 16 only
-    python -m solver.convergence --plan                   # the runs, without computing them
+    mpirun -n 2 roughfriction bench error              # the tables below
+    mpirun -n 2 roughfriction bench error --quick      # N = 8 and 16 only
+    roughfriction bench error --plan                   # the runs, without computing them
 
 Cases (:data:`CASES`): G5 at F* = 0.155 and 0.93, the 2L stand-in at F* = 0.5, and an elastic
 single sinusoid pressed to 1.4 p* (complete contact: closed form p* = sqrt(2) pi E' Delta /
@@ -14,7 +14,7 @@ lambda and A_r/A_n = 1). Each case is run
   grid (the same surface on a 2x finer mesh: the mesh error alone, at every N);
 * with each knob of :data:`VARIANTS` changed alone from the defaults, at :data:`BASE_N`.
 
-Every run is a :class:`~solver.options.FemCase` through the run cache (``results/runs``): a
+Every run is a :class:`~roughfriction.case.FemCase` through the run cache (``results/runs``): a
 rerun computes nothing, and runs are shared with the figures. All ranks compute; rank 0 writes.
 
 Errors (rank 0): of mu_s, A_r/A_n (under the normal load) and junction growth, against the

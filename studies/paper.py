@@ -17,7 +17,7 @@ LOAD_SWEEP = tuple(float(f"{v:.3g}") for v in np.geomspace(0.05, 2.0, 10))
 # --- FEM ------------------------------------------------------------------------------------
 # Every FEM run costs minutes, so the FEM loads are few and chosen to share runs between
 # figures: a normal-only case is answered by the sliding run of the same case when that is in
-# the run cache (``solver.cache``), so ``make figures`` builds the sliding figures first.
+# the run cache (``studies.cache``), so ``make figures`` builds the sliding figures first.
 
 #: FEM surface cells per side of the figures' runs (``--n`` or $ROUGHFRICTION_FEM_N override).
 DEFAULT_FEM_N = 32

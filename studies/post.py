@@ -54,7 +54,7 @@ class RunFile:
         Cells, reduced dofs, ranks, linear solver, peak memory [GB].
     note : str
         How the run was obtained if not the usual way ("" otherwise), e.g. on a standalone
-        normal path after its shared one failed (:mod:`solver.cache`).
+        normal path after its shared one failed (:mod:`studies.cache`).
     """
 
     path: Path

@@ -1,9 +1,9 @@
 """Stress matrix of the FEM (``make stress``): where it converges, how, and where it is reliable.
 
-    mpirun -n 2 python -m solver.stress --n 32
-    python -m solver.stress --plan --n 32        # the runs, without computing them
+    mpirun -n 2 roughfriction bench stress --n 32
+    roughfriction bench stress --plan --n 32     # the runs, without computing them
 
-Runs (tables below), every one a :class:`~solver.options.FemCase` through the run cache on an
+Runs (tables below), every one a :class:`~roughfriction.case.FemCase` through the run cache on an
 N x N grid: G1–G9 at the loads of :data:`MATRIX_LOADS` (one group per surface: its loads share
 one normal loading path; G1 at F* = 1.86 is near-complete contact); the measured surface
 :data:`MEASURED_SURFACE` resampled to the grid, at the same loads; and G5 at
@@ -173,12 +173,12 @@ def default_runs(n: int) -> list[StressRun]:
 
 
 def run_facts(run) -> dict:
-    """What the classification needs from a results file (:class:`solver.post.RunFile`).
+    """What the classification needs from a results file (:class:`studies.post.RunFile`).
 
     Returns
     -------
     dict
-        :func:`solver.batch.summary_columns`, plus ``normal_only``, ``inception`` (the last
+        :func:`studies.batch.summary_columns`, plus ``normal_only``, ``inception`` (the last
         sliding step has every contact node slipping, > 0 of them; None without a sliding
         step) and ``force_error`` (F_n of the last step over its target - 1 [-]; None without
         steps).

@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 from roughfriction.case import FemCase, Loading, SolverOptions
 from roughfriction.geometry.surface import Surface
+from roughfriction.solver.progress import StepCut
 from roughfriction.solver.results import FemResult, StepRecord
 from roughfriction.studies import cache
 from roughfriction.studies.cache import (
@@ -122,7 +123,8 @@ def synthetic_run(case: FemCase):
                                   **{**record, "slide": 1e-8, "slipping_nodes": 16}))
     result = FemResult(records, True, "", case.loading.normal_only, {"total_s": 0.2},
                        {"ranks": 1})
-    return types.SimpleNamespace(result=result, maps={"contact_normal": np.eye(8, dtype=bool)})
+    return types.SimpleNamespace(result=result, maps={"contact_normal": np.eye(8, dtype=bool)},
+                                 equilibrium=types.SimpleNamespace(destroy=lambda: None))
 
 
 class FakeFem:
@@ -141,9 +143,9 @@ class FakeFem:
             self.entries_at_start.append(len(list(self.directory.glob("*.h5"))))
             if (case.surface.name, load) == self.fail_at:
                 raise RuntimeError("killed")
-            progress("normal     Fn=1.0e+00 N Ft=5.0e-01 N ux=0 m newton=3 t=0.1s")
             fem_run = synthetic_run(replace(case, loading=Loading(load,
                                                                   case.loading.normal_only)))
+            progress(fem_run.result.records[0])
             if (case.surface.name, load) in self.stalls and (len(loads) > 1
                                                              or self.stalls_alone):
                 fem_run.result = replace(fem_run.result, converged=False,
@@ -273,7 +275,7 @@ def test_the_first_run_of_a_group_is_not_run_again(fake_fem, tmp_path):
 
 def test_the_runs_of_a_group_are_released_once_written(fake_fem, tmp_path, monkeypatch):
     released = []
-    monkeypatch.setattr(cache, "release_petsc_objects", released.append)
+    monkeypatch.setattr(cache, "release", released.append)
     fill([rough_case(0.155), rough_case(0.3)], tmp_path)
     assert len(released) == 1  # one group, released after both entries were written
     assert [run.result.records[-1].normal_force for run in released[0]] == [
@@ -287,10 +289,33 @@ def resident_megabytes() -> float:
                ) / 1024
 
 
+def reachable_petsc_objects(root) -> list:
+    """Every PETSc object reachable from ``root`` through lists, tuples, dicts and the
+    attributes of roughfriction's own objects."""
+    from petsc4py import PETSc
+
+    seen, pending, found = set(), [root], []
+    while pending:
+        item = pending.pop()
+        if id(item) in seen:
+            continue
+        seen.add(id(item))
+        if isinstance(item, PETSc.Object):
+            found.append(item)
+        elif isinstance(item, (list, tuple)):
+            pending.extend(item)
+        elif isinstance(item, dict):
+            pending.extend(item.values())
+        elif type(item).__module__.startswith("roughfriction.") and hasattr(item, "__dict__"):
+            pending.extend(vars(item).values())
+    return found
+
+
 @pytest.mark.fem
 def test_released_runs_leave_no_memory_behind():
     """Without the release each of these runs leaves ~6 MB behind (petsc4py 3.18 does not free
-    PETSc objects that reference each other)."""
+    PETSc objects that reference each other); the model's destroy() frees every PETSc object
+    the run holds."""
     from roughfriction.geometry.generate import builtin_surface
     from roughfriction.geometry.surface import surface_on_fem_grid
     from roughfriction.solver.run import run
@@ -298,10 +323,12 @@ def test_released_runs_leave_no_memory_behind():
     case = FemCase(surface_on_fem_grid(builtin_surface("G5"), 8), Loading(0.155))
     resident = []
     for _ in range(5):
-        fem_run = run(case, comm_self(), progress=lambda line: None)
-        assert cache.release_petsc_objects(fem_run) > 10
-        assert fem_run.equilibrium.linear_solver.ksp.handle == 0  # destroyed
-        del fem_run
+        fem_run = run(case, comm_self(), progress=lambda record: None)
+        held = reachable_petsc_objects(fem_run)
+        assert len(held) > 10
+        cache.release([fem_run])
+        assert [item for item in held if item.handle != 0] == []  # all destroyed
+        del fem_run, held
         resident.append(resident_megabytes())
     assert resident[-1] - resident[1] < 4.0  # the first run also fills caches
 
@@ -318,14 +345,15 @@ def test_progress_lines_name_the_run_and_the_ratio():
     lines = []
     reporter = cache.RunReporter(2, lines.append)
     reporter.begin(rough_case(0.155))
-    reporter.step("tangential Fn=2.00000e+00 N Ft=5.00000e-01 N ux=1.0e-08 m Ar/An=0.2 "
-                  "nodes=3 slip=0 plastic=0.1 newton=4 t=1.0s")
-    reporter.step("  step cut (Newton 15 its, residual 1e-2 F_n)")
+    record = StepRecord("tangential", 2.0, 0.5, 1e-8, 0.0, 0.2, 3, 1, 0, 0.1, 4, 20, 1.0)
+    reporter.step(record)
+    reporter.step(StepCut("tangential", 15, 1e-2, "residual not finite"))
     reporter.finished({"converged": True, "steps": 9, "newton_iterations": 40, "mu_s": 0.75,
                        "wall_s": 12.0})
     assert lines[0] == ("[1/2] G-test N=8 F*=0.155: step 1 tangential Ft/Fn=0.2500 newton 4 "
                         "(4 in run)")
-    assert lines[1].endswith("step cut (Newton 15 its, residual 1e-2 F_n)")
+    assert lines[1].endswith("tangential step cut (Newton 15 its, residual 1.00e-02 F_n): "
+                             "residual not finite")
     assert "mu_s=0.7500" in lines[2] and "1/2 runs" in lines[2] and "left" in lines[2]
     assert "|" + "#" * 10 + "." * 10 + "|" in lines[2]
 

@@ -73,7 +73,7 @@ def test_fem_contact_area_converges_to_the_bem_limit():
     for factor in (1, 2):
         from roughfriction.solver.run import run
 
-        result = run(refined_case(case, factor), progress=lambda line: None).result
+        result = run(refined_case(case, factor), progress=lambda record: None).result
         assert result.converged
         areas.append(result.records[-1].area_ratio)
     errors = [abs(area / limit.extrapolated - 1.0) for area in areas]

@@ -1,4 +1,4 @@
-"""Reading results files (solver.post) and ``roughfriction post``, on a synthetic run with known
+"""Reading results files (studies.post) and ``roughfriction post``, on a synthetic run with known
 numbers written by the real writer."""
 
 import json

@@ -1,4 +1,4 @@
-"""``python -m solver.command``: JSON keys, HDF5 contents, case files, bad inputs."""
+"""The ``fem`` command: JSON keys, HDF5 contents, case files, bad inputs."""
 
 import json
 
@@ -67,6 +67,7 @@ def test_case_file_and_unconverged_run(rough_file, tmp_path, capsys):
     (["--load", "-1"], "load"),
     ([], "normal load is required"),
     (["--load", "0.3", "--n", "2"], ">= 4"),
+    (["--load", "0.3", "--n", "100000"], "GB are available"),  # refused before allocating
 ])
 def test_bad_command_lines(rough_file, argv, message, capsys):
     assert main([str(rough_file), "--size", "7um", *argv]) != 0

@@ -29,7 +29,7 @@ def newton_reports(rounds: int, monkeypatch) -> list:
     heights = np.random.default_rng(7).normal(0.0, 1e-7, (16, 16))
     case = FemCase(Surface(heights, 1e-6, "test"), Loading(1.0, normal_only=True),
                    solver=SolverOptions(normal_increments=1, max_iterations=MAX_ITERATIONS))
-    result = run(case, MPI.COMM_WORLD, progress=lambda line: None).result
+    result = run(case, MPI.COMM_WORLD, progress=lambda record: None).result
     assert result.converged, result.message
     return reports
 

@@ -41,5 +41,11 @@ def test_cg_meeting_an_indefinite_operator_is_retried_with_gmres():
 
 def test_without_the_retry_the_same_solve_fails(monkeypatch):
     monkeypatch.setattr("roughfriction.solver.linear.INDEFINITE", ())
-    with pytest.raises(LinearSolveError, match="reason -8"):
+    with pytest.raises(LinearSolveError, match=r"cg \(iterative\) DIVERGED_INDEFINITE_PC \(-8\)"):
         solve(shifted_laplacian())
+
+
+def test_destroy_frees_the_ksp():
+    solver = LinearSolver(MPI.COMM_SELF, "direct")
+    solver.destroy()
+    assert solver.ksp.handle == 0

@@ -30,7 +30,7 @@ SERIAL = CASE + """
 import json
 from mpi4py import MPI
 from roughfriction.solver.run import run
-records = run(case, MPI.COMM_SELF, progress=lambda line: None).result.records
+records = run(case, MPI.COMM_SELF, progress=lambda record: None).result.records
 print(json.dumps([[r.phase, r.slide, r.tangential_force, r.normal_force, r.contact_nodes]
                   for r in records]))
 """
@@ -56,7 +56,7 @@ def test_two_ranks_equal_serial():
     exec(CASE, namespace)
     from roughfriction.solver.run import run
 
-    parallel = curve(run(namespace["case"], comm, progress=lambda line: None).result.records)
+    parallel = curve(run(namespace["case"], comm, progress=lambda record: None).result.records)
     serial = None
     if comm.rank == 0:
         output = subprocess.run([sys.executable, "-c", SERIAL], cwd=ROOT, capture_output=True,

@@ -10,6 +10,7 @@ from roughfriction.geometry.mesh import (  # noqa: E402
     MeshOptions,
     build_block,
     interpolation_masters,
+    mesh_size,
 )
 from roughfriction.material import Material  # noqa: E402
 from roughfriction.solver.periodic import PeriodicReduction, dof_node_grid_index  # noqa: E402
@@ -110,6 +111,10 @@ def test_periodic_images_share_displacements_and_the_bottom_is_fixed(block):
     assert np.all(u[grid[:, 2] == 0] == 0.0)
     # above the bottom, a node layer's own dofs sit at the spacing of the cell layer below it
     assert reduction.num_reduced_global == sum((n // stride) ** 2 for stride in block.layer_stride)
+    # the size estimate used to refuse oversized runs counts the same, without a mesh
+    cells, dofs = mesh_size(n, MeshOptions())
+    assert (cells, dofs) == (block.mesh.topology.index_map(3).size_global,
+                             3 * reduction.num_reduced_global)
 
 
 def test_hanging_nodes_follow_the_coarse_faces_bilinearly(block):

@@ -36,7 +36,7 @@ def run_case(heights, load, material=PAPER_MATERIAL, mesh=DEFAULT_MESH, normal_o
              **solver):
     case = FemCase(Surface(heights, SPACING, "test"), Loading(load, normal_only), material, mesh,
                    SolverOptions(**solver))
-    return run(case, MPI.COMM_WORLD, progress=lambda line: None)
+    return run(case, MPI.COMM_WORLD, progress=lambda record: None)
 
 
 def top_settlement(fem_run) -> np.ndarray:
@@ -252,9 +252,9 @@ def test_loads_sharing_one_preload_match_standalone_runs():
     there, the low-resolution regime the paper also calls unreliable."""
     surface = surface_on_fem_grid(builtin_surface("G5"), 16)
     case = FemCase(surface, Loading(0.155))
-    low, high = run_loads(case, [0.62, 0.155], MPI.COMM_WORLD, progress=lambda line: None)
+    low, high = run_loads(case, [0.62, 0.155], MPI.COMM_WORLD, progress=lambda record: None)
     alone = {load: run(replace(case, loading=Loading(load)), MPI.COMM_WORLD,
-                       progress=lambda line: None).result for load in (0.155, 0.62)}
+                       progress=lambda record: None).result for load in (0.155, 0.62)}
 
     assert high.result.summary()["mu_s"] == alone[0.155].summary()["mu_s"]
     assert [r.phase for r in high.result.records] == [r.phase for r in alone[0.155].records]

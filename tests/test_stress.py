@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 from roughfriction.case import FemCase, Loading, SolverOptions
 from roughfriction.geometry.surface import Surface
+from roughfriction.solver.progress import StepCut
 from roughfriction.solver.results import FemResult, StepRecord
 from roughfriction.studies.stress import (
     ALONE,
@@ -95,7 +96,9 @@ class ScriptedEquilibrium:
         contact = types.SimpleNamespace(fn=normal_force, slide=slide,
                                         in_contact=np.ones(4, bool),
                                         slipping=np.full(4, slide > 0))
-        return NewtonReport(self.calls not in self.failing, 3, 0, 1e-3, contact)
+        failed = self.calls in self.failing
+        return NewtonReport(not failed, 3, 0, 1e-3, contact,
+                            f"scripted failure {self.calls}" if failed else "")
 
     def place_flat(self, normal_force):
         pass
@@ -122,9 +125,15 @@ def test_load_path_records_the_cuts_before_each_step_also_across_a_branch():
 
     case = FemCase(Surface(np.zeros((4, 4)), SPACING, "flat"), Loading(0.5))
     equilibrium = ScriptedEquilibrium(failing={2, 3, 10, 13})
-    path = LoadPath(equilibrium, case, 4 * SPACING, progress=lambda line: None)
+    events = []
+    path = LoadPath(equilibrium, case, 4 * SPACING, progress=events.append)
     target = case.normal_force
     assert path.preload(0.5 * target).converged  # calls 2 and 3 cut the second step twice
+    cuts = [event for event in events if isinstance(event, StepCut)]
+    assert [(cut.phase, cut.reason) for cut in cuts] == [
+        ("normal", "scripted failure 2"), ("normal", "scripted failure 3")]
+    assert str(cuts[0]).endswith("residual 1.00e-03 F_n): scripted failure 2")
+    assert [type(event) for event in events].count(StepRecord) == len(path.records)
     assert [r.cuts for r in path.records] == [0, 2, 0, 0, 0, 0, 0]
     # steps 3-7 start from the last two steps extrapolated (not step 2: step 1 began unloaded)
     assert len(equilibrium.extrapolations) == 5
@@ -310,7 +319,7 @@ def test_tiny_stress_matrix_end_to_end(tmp_path):
                          case=FemCase(Surface(spiky, SPACING, "spiky"), Loading(0.155))),
                StressRun("measured", "missing", 0.155, error="measured surface not available")])
     rows = run_stress(runs, 8, (0.155, 0.62), tmp_path / "out", MPI.COMM_SELF,
-                      tmp_path / "runs", progress=lambda line: None)
+                      tmp_path / "runs", progress=lambda record: None)
     outcome = {(r["surface"], r["load_star"], r["factor"]): r for r in rows}
     for key in (("R", 0.155, 1.0), ("R", 0.62, 1.0), ("R", 0.155, 10.0)):
         assert outcome[key]["outcome"] in (DIRECT, CUT), outcome[key]
