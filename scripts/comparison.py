@@ -1,7 +1,9 @@
 """mu_s of the FEM beside the multi-scale model and the statistical CKE and LET models
-(Figs. 22–28). The theory uses each surface on its own 128 x 128 grid; the FEM its N x N
-re-grid, plotted at the surface's psi. A statistical value outside its model's published range
-(``multiscale.statistical``) is drawn hollow on a dotted line and labelled so."""
+(Figs. 22–28). The theory uses each surface on its own 128 x 128 grid; the FEM the surface of
+``studies.paper.fem_surface`` (for G1–G9 a window at their own spacing), whose psi is in the
+``psi_fem`` column and, where it is more than 3 % off the surface's, on the figure. A
+statistical value outside its model's published range (``multiscale.statistical``) is drawn
+hollow on a dotted line and labelled so."""
 
 import numpy as np
 from roughfriction.geometry.generate import builtin_surface
@@ -9,11 +11,13 @@ from roughfriction.geometry.statistics import surface_statistics
 from roughfriction.material import Material
 from roughfriction.multiscale.scales import scale_decomposition
 from roughfriction.multiscale.theory import evaluate_theory
-from roughfriction.scripts.fem_views import fem_label, fem_mu, fem_mu_at_least
+from roughfriction.scripts.fem_views import fem_label, fem_mu, fem_mu_at_least, fem_psi
 from roughfriction.scripts.figures import new_axes
 from roughfriction.studies.paper import FEM_LOAD_SWEEP, GAUSSIAN_SURFACES, LOAD_SWEEP, fem_case
 
 STAND_INS = ("2L", "8L", "63M")
+#: Largest relative difference of the meshed surface's psi from the surface's own [-].
+PSI_TOLERANCE = 0.03
 
 
 def draw_statistical(ax, x, mu, valid, label: str, style: dict) -> None:
@@ -58,6 +62,7 @@ def psi_sweep(load: float, runs):
     columns = {
         "surface": np.array(GAUSSIAN_SURFACES),
         "psi": psi,
+        "psi_fem": np.array([fem_psi(run) for run in runs]),
         "mu_fem": mu_fem,
         "mu_fem_at_least": at_least,
         "mu_multiscale": np.array([result.mu_s for result in theory]),
@@ -74,6 +79,12 @@ def psi_sweep(load: float, runs):
     ax.set_xlabel("plasticity index ψ (–)")
     ax.set_ylabel("$\\mu_s$ (–)")
     ax.set_title(f"Static friction, G1–G9, $F^*$ = {load:g}")
+    off = np.abs(columns["psi_fem"] / psi - 1.0) > PSI_TOLERANCE
+    if off.any():
+        ax.text(0.02, 0.02, "FEM meshed ψ: " + ", ".join(
+            f"{name} {value:.3g}" for name, value in zip(columns["surface"][off],
+                                                        columns["psi_fem"][off], strict=True)),
+            transform=ax.transAxes, fontsize=6)
     ax.legend(fontsize=7)
     return fig, columns
 
@@ -95,6 +106,7 @@ def load_sweep(name: str, runs):
     mu_let = np.array([result.mu_let for result in theory])
     let_valid = np.array([result.let_valid for result in theory])
     fem_loads = np.array([run.load_star for run in runs])
+    psi_fem = np.array([fem_psi(run) for run in runs])
     fig, ax = new_axes()
     mu_fem, at_least = draw_fem(ax, fem_loads, runs)
     ax.plot(loads, [result.mu_s for result in theory], "s-", color="C0", ms=4,
@@ -104,7 +116,11 @@ def load_sweep(name: str, runs):
     ax.set_xscale("log")
     ax.set_xlabel("$F^* = F_n / (A_n S_y)$ (–)")
     ax.set_ylabel("$\\mu_s$ (–)")
-    ax.set_title(f"Static friction vs load, {surface_title(name)}, ψ = {psi:.3g}")
+    meshed = psi_fem[np.isfinite(psi_fem)]
+    title = f"Static friction vs load, {surface_title(name)}, ψ = {psi:.3g}"
+    if meshed.size and abs(meshed[0] / psi - 1.0) > PSI_TOLERANCE:
+        title += f" (FEM meshed ψ = {meshed[0]:.3g})"
+    ax.set_title(title)
     ax.legend(fontsize=7)
     notes = ["" if valid else "outside its range" for valid in let_valid]
     fem_notes = ["" if np.isfinite(mu) else
@@ -113,6 +129,7 @@ def load_sweep(name: str, runs):
     columns = {
         "model": np.array(["fem"] * len(runs) + ["multiscale"] * len(loads) + ["let"] * len(loads)),
         "load_star": np.concatenate([fem_loads, loads, loads]),
+        "psi_fem": np.concatenate([psi_fem, np.full(2 * len(loads), np.nan)]),
         "mu_s": np.concatenate([mu_fem, [result.mu_s for result in theory], mu_let]),
         "note": np.array(fem_notes + [""] * len(loads) + notes),
     }

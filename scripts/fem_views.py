@@ -5,6 +5,7 @@ through ``studies.post``; a run whose preload (or sliding) did not finish gives 
 import numpy as np
 from roughfriction.geometry.generate import builtin_surface
 from roughfriction.geometry.statistics import surface_statistics
+from roughfriction.geometry.surface import Surface
 from roughfriction.material import Material
 from roughfriction.scripts.figures import new_axes
 from roughfriction.studies.post import interference, preload_state, tangential_curve
@@ -15,6 +16,15 @@ UM = 1e-6
 def builtin_psi(name: str) -> float:
     """Plasticity index psi of built-in surface ``name`` on its own 128 x 128 grid [-]."""
     return surface_statistics(builtin_surface(name), Material()).psi
+
+
+def fem_psi(run) -> float:
+    """Plasticity index psi of the surface the run meshed (its N x N heights) [-]; NaN if the
+    run did not record them."""
+    heights = getattr(run, "maps", {}).get("surface_heights")
+    if heights is None:
+        return float("nan")
+    return surface_statistics(Surface(heights, run.spacing), Material()).psi
 
 
 def preload_value(run, key: str) -> float:
@@ -85,7 +95,8 @@ def tangential_curves(runs, normalised: bool):
     """F_t/F_n along the tangential loading of each run, against u_x/omega_0 (``normalised``,
     Fig. 21) or u_x (Fig. 29)."""
     fig, ax = new_axes()
-    columns = {"surface": [], "psi": [], "ux_m": [], "ux_over_omega0": [], "Ft_over_Fn": []}
+    columns = {"surface": [], "psi": [], "psi_fem": [], "ux_m": [], "ux_over_omega0": [],
+               "Ft_over_Fn": []}
     for run in runs:
         curve = tangential_curve(run)
         omega_0 = interference(run) or float("nan")
@@ -97,6 +108,7 @@ def tangential_curves(runs, normalised: bool):
         count = len(curve["ux_m"])
         columns["surface"] += [run.surface_name] * count
         columns["psi"] += [psi] * count
+        columns["psi_fem"] += [fem_psi(run)] * count
         columns["ux_m"] += list(curve["ux_m"])
         columns["ux_over_omega0"] += list(curve["ux_m"] / omega_0)
         columns["Ft_over_Fn"] += list(curve["Ft_over_Fn"])

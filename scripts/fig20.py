@@ -1,7 +1,7 @@
 """Fig. 20: FEM contact area A_r/A_n under normal load vs F* for G1–G9."""
 
 import numpy as np
-from roughfriction.scripts.fem_views import builtin_psi, fem_label, preload_value
+from roughfriction.scripts.fem_views import builtin_psi, fem_label, fem_psi, preload_value
 from roughfriction.scripts.figures import new_axes
 from roughfriction.studies.paper import AREA_LOADS, GAUSSIAN_SURFACES, fem_case
 
@@ -13,7 +13,7 @@ def fem_cases(n):
 
 def make(runs):
     fig, ax = new_axes()
-    columns = {"surface": [], "psi": [], "load_star": [], "area_ratio": []}
+    columns = {"surface": [], "psi": [], "psi_fem": [], "load_star": [], "area_ratio": []}
     for name in GAUSSIAN_SURFACES:
         mine = [run for run in runs if run.surface_name == name]
         loads = [run.load_star for run in mine]
@@ -22,6 +22,7 @@ def make(runs):
         ax.plot(loads, areas, "o-", ms=3, label=f"{name}, ψ = {psi:.3g}")
         columns["surface"] += [name] * len(mine)
         columns["psi"] += [psi] * len(mine)
+        columns["psi_fem"] += [fem_psi(run) for run in mine]
         columns["load_star"] += loads
         columns["area_ratio"] += areas
     ax.set_xscale("log")

@@ -51,11 +51,41 @@ def fem_resolution(n=None) -> int:
     return value
 
 
-def fem_case(name: str, load: float, n: int, normal_only: bool = False):
-    """The FEM case of built-in surface ``name`` re-gridded to n x n, at F* = ``load`` [-],
-    with the default material, mesh and solver options."""
-    from roughfriction.case import FemCase, Loading
-    from roughfriction.geometry.generate import builtin_surface
-    from roughfriction.geometry.surface import surface_on_fem_grid
+def fem_surface(name: str, n: int, window: int | None = None):
+    """The surface an FEM run of built-in surface ``name`` meshes with n x n cells.
 
-    return FemCase(surface_on_fem_grid(builtin_surface(name), n), Loading(load, normal_only))
+    G1–G9 (i.i.d. heights) below their own 128 x 128 grid: an n x n window of their points at
+    their own spacing (windows tile the grid row by row; by default the one whose psi is
+    nearest the whole surface's), so the FEM meshes the surface's psi; a re-grid to n points
+    would be a smoother surface (psi / 4.8 at n = 32). Otherwise, and for the self-affine
+    stand-ins, whose windows lose the long wavelengths, the surface re-gridded to n x n
+    (``geometry.surface.surface_on_fem_grid``): below 128 a smoother surface, whose psi the
+    figures report as ``psi_fem``.
+    """
+    from roughfriction.errors import InputError
+    from roughfriction.geometry.generate import builtin_surface
+    from roughfriction.geometry.statistics import surface_statistics
+    from roughfriction.geometry.surface import Surface, surface_on_fem_grid
+    from roughfriction.material import Material
+
+    surface = builtin_surface(name)
+    if name not in GAUSSIAN_SURFACES or n >= surface.n:
+        return surface_on_fem_grid(surface, n)
+    per_side = surface.n // n
+    windows = [Surface(surface.heights[i * n:(i + 1) * n, j * n:(j + 1) * n], surface.spacing,
+                       name) for i in range(per_side) for j in range(per_side)]
+    if window is None:
+        psi = [surface_statistics(one, Material()).psi for one in (surface, *windows)]
+        window = int(np.argmin(np.abs(np.array(psi[1:]) - psi[0])))
+    if not 0 <= window < len(windows):
+        raise InputError(f"{name} has {len(windows)} windows of {n} x {n} points, "
+                         f"not {window + 1}")
+    return windows[window]
+
+
+def fem_case(name: str, load: float, n: int, normal_only: bool = False):
+    """The FEM case of built-in surface ``name`` on n x n cells (:func:`fem_surface`), at
+    F* = ``load`` [-], with the default material, mesh and solver options."""
+    from roughfriction.case import FemCase, Loading
+
+    return FemCase(fem_surface(name, n), Loading(load, normal_only))

@@ -143,6 +143,26 @@ def test_mu_vs_psi_marks_statistical_models_outside_their_range(monkeypatch):
     assert AT_LEAST not in labels  # no failed run, no such marker
 
 
+def test_mu_vs_psi_reports_the_psi_that_was_meshed():
+    from roughfriction.scripts import fig22, fig26
+
+    cases = fig22.fem_cases(32)
+    runs = fake_runs(cases, [0.5] * 9)
+    for run, case in zip(runs, cases, strict=True):
+        run.maps, run.spacing = {"surface_heights": case.surface.heights}, case.surface.spacing
+    fig, columns = fig22.make(runs)
+    np.testing.assert_allclose(columns["psi_fem"], columns["psi"], rtol=0.03)
+    assert not fig.axes[0].texts  # nothing meshed off the axis
+    cases = fig26.fem_cases(32)  # the 2L stand-in, re-gridded: a smoother surface
+    runs = fake_runs(cases, [0.5] * len(cases))
+    for run, case in zip(runs, cases, strict=True):
+        run.maps, run.spacing = {"surface_heights": case.surface.heights}, case.surface.spacing
+    fig, columns = fig26.make(runs)
+    fem = columns["model"] == "fem"
+    assert np.all(columns["psi_fem"][fem] < 10.0) and np.isnan(columns["psi_fem"][~fem]).all()
+    assert "FEM meshed ψ" in fig.axes[0].get_title()
+
+
 def test_mu_vs_load_columns():
     from roughfriction.scripts import fig28
 
