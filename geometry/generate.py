@@ -171,7 +171,7 @@ _TABLE_1 = {
     "G9": (0.2e-6, 26.17, 30),
 }
 
-# Hurst exponent of the stand-ins. With the shell amplitudes of Eq. 35 (spec §3), Delta_i ~
+# Hurst exponent of the stand-ins. With the shell amplitudes of Eq. 35 (theory.md §3), Delta_i ~
 # lambda_i^(H + 1/2), so Delta/lambda falls with wavelength only for H < 1/2. The paper's Fig. 13
 # shows exactly that trend for 2L, and its Fig. 14 has the finest scale still reducing the area;
 # H = 0.8 gave the opposite trend (every scale finer than lambda = L/2 flattened at F* = 0.5).

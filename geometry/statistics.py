@@ -1,7 +1,7 @@
 """Spectral moments, summit statistics and the plasticity index (paper Eqs. 11-18, 21).
 
 The discrete scheme (forward differences along x, h = L / (N - 1)) is the one that reproduces the
-paper's Table 1 (spec section 2 and 9.1).
+paper's Table 1 (docs/theory.md §2).
 """
 
 from __future__ import annotations

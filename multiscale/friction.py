@@ -1,4 +1,4 @@
-"""Static friction of stacked scales with junction growth (paper Sect. 4.2; spec §6).
+"""Static friction of stacked scales with junction growth (paper Sect. 4.2; theory.md §6).
 
 Added assumptions [S]: (d') every scale carries the same total tangential load F_t; (e') F_t is
 shared equally within a scale; (f') τ_i ≥ τ_{i−1}. A load loop (iteration a) repeats the scale
@@ -89,7 +89,7 @@ class FrictionResult:
 def sliding_pass(
     scales: Scales, normal_load, nominal_area, tangential_load, material: Material, variant="A"
 ) -> SlidingPass:
-    """Contact areas at sliding inception, scale by scale (iteration b of spec §6).
+    """Contact areas at sliding inception, scale by scale (iteration b of theory.md §6).
 
     Parameters
     ----------
@@ -136,7 +136,7 @@ def static_friction(
     tolerance=1e-6,
     max_iterations=200,
 ) -> FrictionResult:
-    """Static friction coefficient of a rough surface on a rigid flat (spec §6 algorithm).
+    """Static friction coefficient of a rough surface on a rigid flat (theory.md §6 algorithm).
 
     Parameters
     ----------
@@ -148,9 +148,9 @@ def static_friction(
         The material (τ_c [Pa] is the critical interfacial shear strength).
     variant : {"A", "B"}
         "A" (default): Eq. 36 with τ_c at every scale, as printed; converges at j = 2.
-        "B": Eq. 36 with min(τ_i, τ_c), so the load loop matters (spec §6, §8 #11).
+        "B": Eq. 36 with min(τ_i, τ_c), so the load loop matters (theory.md §6, §8 #11).
     tolerance : float
-        E_c on |F_t^(j) − F_t^(j−1)| / F_t^(j) [-] (spec §8 #13).
+        E_c on |F_t^(j) − F_t^(j−1)| / F_t^(j) [-] (theory.md §8 #13).
     max_iterations : int
         j_max, load iterations at most [-]; if reached, ``converged`` is False and a
         RuntimeWarning is issued.
@@ -168,7 +168,7 @@ def static_friction(
         )
     normal = normal_contact(scales, load_star, material)  # validates F* and the roughness
     history = []
-    tangential_load = 0.0  # F_t^(0) [I] spec §8 #13
+    tangential_load = 0.0  # F_t^(0) [I] theory.md §8 #13
     converged = False
     while not converged and len(history) < max_iterations:
         state = sliding_pass(

@@ -1,8 +1,8 @@
-"""Decomposition of a surface into stacked sinusoid scales (paper Sect. 4.2; spec §3).
+"""Decomposition of a surface into stacked sinusoid scales (paper Sect. 4.2; theory.md §3).
 
 Scale i has wavelength λ_i = L/i and an equivalent amplitude Δ_i = 2 √V_i, where V_i is the
 height variance in the square shell max(|k|, |l|) = i of the two-sided, N²-normalised 2-D
-spectrum (Eq. 35* [R]/[I] spec §3: Eq. 35 is missing from the paper's text).
+spectrum (Eq. 35* [R]/[I] theory.md §3: Eq. 35 is missing from the paper's text).
 """
 
 from __future__ import annotations
@@ -46,7 +46,7 @@ class Scales:
 
 
 def shell_variances(heights):
-    """Height variance per square shell of the 2-D spectrum, V_s [m^2] (Eq. 35* [R] spec §3).
+    """Height variance per square shell of the 2-D spectrum, V_s [m^2] (Eq. 35* [R] theory.md §3).
 
     Parameters
     ----------
@@ -78,11 +78,11 @@ def scale_decomposition(surface: Surface, *, length=None, i_max=None) -> Scales:
     surface : Surface
         The height map [m].
     length : float, optional
-        L [m] in λ_i = L/i; default the scan length (N − 1) h, as the paper (spec §8 #2). The
+        L [m] in λ_i = L/i; default the scan length (N − 1) h, as the paper (theory.md §8 #2). The
         FFT period N h is the alternative.
     i_max : int, optional
         Number of scales; default (N − 1)//2 (N/2 − 1 for even N: the Nyquist shell, whose
-        self-conjugate bins would read as twice the amplitude, is excluded; spec §8 #10).
+        self-conjugate bins would read as twice the amplitude, is excluded; theory.md §8 #10).
         At most N//2.
 
     Returns
@@ -106,7 +106,7 @@ def scale_decomposition(surface: Surface, *, length=None, i_max=None) -> Scales:
     return Scales(
         wavelength=scan_length / index,
         frequency=index / scan_length,
-        amplitude=2.0 * np.sqrt(variance),  # Eq. 35* [R] spec §3
+        amplitude=2.0 * np.sqrt(variance),  # Eq. 35* [R] theory.md §3
         variance=variance,
         length=scan_length,
     )

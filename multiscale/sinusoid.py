@@ -1,8 +1,8 @@
 """Contact of one scale: a 3-D sinusoid z = Δ cos(2πx/λ) cos(2πy/λ) pressed by a rigid flat.
 
-Paper Sect. 4.1, Eqs. 24–34 and 36–37; reconstructions follow the spec
-(/work/shared/spec/multiscale-model.md, §4 and §6). Every area is per λ² cell, which holds two
-peaks of tip radius R_p = λ² / (4π² Δ), so complete contact means an area of λ² (spec §4.1).
+Paper Sect. 4.1, Eqs. 24–34 and 36–37; reconstructions as in docs/theory.md §4 and §6. Every
+area is per λ² cell, which holds two peaks of tip radius R_p = λ² / (4π² Δ), so complete
+contact means an area of λ² (theory.md §4.1).
 
 Each public function is written for scalars with ``math`` (the multi-scale loops call it once per
 scale) and also accepts NumPy arrays, which it broadcasts element by element.
@@ -17,9 +17,11 @@ import warnings
 import numpy as np
 from roughfriction.material import Material
 
-# Eqs. 24-25 switch from the blend to the near-complete asymptote at p/p* = 0.8 [S-fix] spec §4.2
+# Eqs. 24-25 switch from the blend to the near-complete asymptote at p/p* = 0.8
+# [S-fix] theory.md §4.2
 JS_BLEND_LIMIT = 0.8
-# Eq. 32 as reconstructed rises to a plateau and then falls: trusted up to x = Δ/Δ_c = 100 (§4.5)
+# Eq. 32 as reconstructed rises to a plateau and then falls: trusted up to x = Δ/Δ_c = 100
+# (theory.md §4.5)
 EP_PRESSURE_TRUSTED_X = 100.0
 
 
@@ -59,7 +61,7 @@ def complete_contact_pressure(amplitude, frequency, material):
     Returns
     -------
     float or numpy.ndarray
-        p* = √2 π E' Δ f [Pa] (the paper's OCR prints √(2π); spec §4.2).
+        p* = √2 π E' Δ f [Pa] (the paper's OCR prints √(2π); theory.md §4.2).
     """
     return math.sqrt(2.0) * math.pi * material.E_star * amplitude * frequency  # Eq. 28
 
@@ -68,7 +70,7 @@ def complete_contact_pressure(amplitude, frequency, material):
 def jgh_area_low_load(pressure_ratio, frequency):
     """Johnson–Greenwood–Higginson low-load contact area per λ² cell, Ā_1 [m^2] (Eq. 26).
 
-    It equals the Hertz area of the cell's two peaks, each carrying p̄λ²/2 (spec §4.2 [R]).
+    It equals the Hertz area of the cell's two peaks, each carrying p̄λ²/2 (theory.md §4.2 [R]).
 
     Parameters
     ----------
@@ -92,7 +94,7 @@ def jgh_area_near_complete(pressure_ratio, frequency):
     Parameters
     ----------
     pressure_ratio : float or array_like
-        r = p̄ / p* [-] (or p̄ / p*_ep in Eq. 29, spec §8 #5).
+        r = p̄ / p* [-] (or p̄ / p*_ep in Eq. 29, theory.md §8 #5).
     frequency : float or array_like
         f = 1/λ [m^-1].
 
@@ -127,10 +129,10 @@ def elastic_contact_area(mean_pressure, amplitude, wavelength, material):
     frequency = 1.0 / wavelength
     complete_pressure = complete_contact_pressure(amplitude, frequency, material)
     ratio = _pressure_ratio(mean_pressure, complete_pressure)
-    if ratio >= 1.0:  # complete contact [I] spec §4.2
+    if ratio >= 1.0:  # complete contact [I] theory.md §4.2
         return wavelength**2
     near_complete = jgh_area_near_complete(ratio, frequency)
-    if ratio >= JS_BLEND_LIMIT:  # Eq. 25, threshold read as p/p* [S-fix] spec §4.2
+    if ratio >= JS_BLEND_LIMIT:  # Eq. 25, threshold read as p/p* [S-fix] theory.md §4.2
         return near_complete
     low_load = jgh_area_low_load(ratio, frequency)
     return low_load * (1.0 - ratio**1.51) + near_complete * ratio**1.04  # Eq. 24
@@ -162,7 +164,7 @@ def poisson_coefficient_c_nu(material):
     """The paper's C_ν(ν) = 0.0017 exp(8.09 ν) − 0.0567 [-] (Eq. 34).
 
     Exposed for completeness but used nowhere: where C_ν enters was lost in the paper's text, and
-    Eq. 33 as printed is dimensionally complete without it (spec §4.3, §8 #7).
+    Eq. 33 as printed is dimensionally complete without it (theory.md §4.3, §8 #7).
 
     Parameters
     ----------
@@ -181,7 +183,7 @@ def poisson_coefficient_c_nu(material):
 def elastic_plastic_complete_contact_pressure(amplitude, frequency, material):
     """Mean pressure for complete contact of an elastic–plastic sinusoid, p*_ep [Pa] (Eq. 32).
 
-    Eq. 32 is garbled in the paper; this is the spec's reconstruction [R] spec §4.5:
+    Eq. 32 is garbled in the paper; this is the reconstruction of theory.md [R] theory.md §4.5:
     p*_ep / p* = 0.992 x^(−1/X), X = (10/3) x^(−0.39) + (9/4) ν⁴ + 0.64, x = Δ/Δ_c. It is meant
     for x ≥ 1 and warns (RuntimeWarning) above x = 100, where the fit turns down.
 
@@ -209,7 +211,7 @@ def elastic_plastic_complete_contact_pressure(amplitude, frequency, material):
         )
     exponent = 10.0 / 3.0 * x**-0.39 + 2.25 * material.nu**4 + 0.64  # X of Eq. 32
     elastic_pressure = complete_contact_pressure(amplitude, frequency, material)
-    return 0.992 * x ** (-1.0 / exponent) * elastic_pressure  # Eq. 32, [R] spec §4.5
+    return 0.992 * x ** (-1.0 / exponent) * elastic_pressure  # Eq. 32, [R] theory.md §4.5
 
 
 @_elementwise
@@ -228,7 +230,7 @@ def regime_complete_contact_pressure(amplitude, frequency, material):
     Returns
     -------
     float or numpy.ndarray
-        p* (Eq. 28) or p*_ep (Eq. 32) [Pa], by the rule of spec §4.3.
+        p* (Eq. 28) or p*_ep (Eq. 32) [Pa], by the rule of theory.md §4.3.
     """
     if amplitude <= critical_amplitude(frequency, material):
         return complete_contact_pressure(amplitude, frequency, material)
@@ -258,7 +260,8 @@ def plasticity_parameter(amplitude, wavelength, material):
 
 @_elementwise
 def peak_radius(amplitude, wavelength):
-    """Tip radius of each of the two peaks of a λ² cell, R_p = λ² / (4π² Δ) [m] ([R] spec §4.1).
+    """Tip radius of each of the two peaks of a λ² cell, R_p = λ² / (4π² Δ) [m]
+    ([R] theory.md §4.1).
 
     Parameters
     ----------
@@ -277,7 +280,7 @@ def peak_radius(amplitude, wavelength):
 
 @_elementwise
 def kj_critical_area(amplitude, wavelength, material):
-    """Contact area per λ² cell at yield inception of its two peaks, A_c [m^2] ([R] spec §4.4).
+    """Contact area per λ² cell at yield inception of its two peaks, A_c [m^2] ([R] theory.md §4.4).
 
     A_c = 2 a_c with the Jackson–Green critical area of one peak a_c = π³ (C S_y R_p / (2E'))²,
     which equals C² λ² / (64 π φ²).
@@ -301,7 +304,8 @@ def kj_critical_area(amplitude, wavelength, material):
 
 
 def critical_peak_pressure(material):
-    """Mean contact pressure of a peak at yield inception, p_c = (2/3) C S_y [Pa] ([R] spec §4.4).
+    """Mean contact pressure of a peak at yield inception, p_c = (2/3) C S_y [Pa]
+    ([R] theory.md §4.4).
 
     Parameters
     ----------
@@ -318,7 +322,7 @@ def critical_peak_pressure(material):
 
 @_elementwise
 def kj_critical_pressure(amplitude, wavelength, material):
-    """Mean cell pressure at yield inception of the peaks, p̄_c [Pa] ([R] spec §4.4).
+    """Mean cell pressure at yield inception of the peaks, p̄_c [Pa] ([R] theory.md §4.4).
 
     p̄_c = p_c A_c / λ² with the peak's critical mean contact pressure p_c = (2/3) C S_y.
 
@@ -345,7 +349,7 @@ def kj_contact_area(mean_pressure, amplitude, wavelength, material):
     """Krithivasan–Jackson elastic–plastic contact area per λ² cell, Ā_p [m^2] (Eqs. 30–31).
 
     Ā_p = 2 (A_c/2)^(1/(1+d)) (3 p̄ λ² / (4 C S_y))^(d/(1+d)), d = 3.8 φ^0.11, which equals
-    A_c (p̄ / p̄_c)^(d/(1+d)): the Hertz area at yield inception (spec §4.4).
+    A_c (p̄ / p̄_c)^(d/(1+d)): the Hertz area at yield inception (theory.md §4.4).
 
     Parameters
     ----------
@@ -366,7 +370,7 @@ def kj_contact_area(mean_pressure, amplitude, wavelength, material):
     exponent = 3.8 * plasticity_parameter(amplitude, wavelength, material) ** 0.11  # Eq. 31
     peak_load = mean_pressure * wavelength**2 / 2.0  # two peaks per cell share p̄λ² [N]
     load_over_critical_pressure = peak_load / critical_peak_pressure(material)  # 3p̄λ²/(4CS_y)
-    critical_area = kj_critical_area(amplitude, wavelength, material)  # A_c: [R] spec §4.4
+    critical_area = kj_critical_area(amplitude, wavelength, material)  # A_c: [R] theory.md §4.4
     return (
         2.0
         * (critical_area / 2.0) ** (1.0 / (1.0 + exponent))
@@ -379,7 +383,7 @@ def elastic_plastic_contact_area(mean_pressure, amplitude, wavelength, material)
     """Elastic–plastic contact area per λ² cell, Ā [m^2] (Eq. 29).
 
     Ā = Ā_p (1 − r_ep^1.51) + Ā_2(r_ep) r_ep^1.04 with r_ep = p̄ / p*_ep, Ā_2 evaluated at r_ep so
-    that Ā reaches λ² at p̄ = p*_ep (spec §8 #5), λ² for r_ep ≥ 1, and never above λ².
+    that Ā reaches λ² at p̄ = p*_ep (theory.md §8 #5), λ² for r_ep ≥ 1, and never above λ².
 
     Parameters
     ----------
@@ -403,7 +407,7 @@ def elastic_plastic_contact_area(mean_pressure, amplitude, wavelength, material)
     if ratio >= 1.0:  # complete contact
         return wavelength**2
     plastic_area = kj_contact_area(mean_pressure, amplitude, wavelength, material)
-    near_complete = jgh_area_near_complete(ratio, frequency)  # [I] spec §4.4
+    near_complete = jgh_area_near_complete(ratio, frequency)  # [I] theory.md §4.4
     blend = plastic_area * (1.0 - ratio**1.51) + near_complete * ratio**1.04  # Eq. 29
     return min(blend, wavelength**2)
 
@@ -452,7 +456,7 @@ def junction_growth_fit(pressure_ratio, phi, shear_stress, material):
     -------
     float or numpy.ndarray
         G = 2.6 {coth(15.2 √r) e^(−0.017φ−3) − 0.03 φ^(1/4) r⁴ + 0.1364} [(τ/S_y)² + 2.13] [-];
-        it diverges as r → 0 and falls below 1 near r = 1 (spec §6).
+        it diverges as r → 0 and falls below 1 near r = 1 (theory.md §6).
     """
     coth = 1.0 / math.tanh(15.2 * math.sqrt(pressure_ratio))
     braces = coth * math.exp(-0.017 * phi - 3.0) - 0.03 * phi**0.25 * pressure_ratio**4 + 0.1364
@@ -463,7 +467,7 @@ def junction_growth_fit(pressure_ratio, phi, shear_stress, material):
 def junction_growth_factor(mean_pressure, amplitude, wavelength, shear_stress, material):
     """Junction growth factor applied to one scale, G_eff = A_s / A_0 [-] (Eqs. 36–37, clamped).
 
-    Clamps [I] spec §6: G_eff = 1 in complete contact (p̄ ≥ p*_ep), otherwise max(G, 1), so the
+    Clamps [I] theory.md §6: G_eff = 1 in complete contact (p̄ ≥ p*_ep), otherwise max(G, 1), so the
     fit's G < 1 near complete contact never shrinks the area.
 
     Parameters

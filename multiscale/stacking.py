@@ -1,4 +1,4 @@
-"""Normal contact of stacked scales, Jackson–Streator multi-scale model (Eqs. 22–23; spec §5).
+"""Normal contact of stacked scales, Jackson–Streator multi-scale model (Eqs. 22–23; theory.md §5).
 
 Assumptions (a)–(d) of JS [S]: smaller asperities sit on larger ones; every scale carries the
 full normal load; the load is shared equally within a scale; A_i ≤ A_{i−1}.
@@ -81,7 +81,7 @@ def scale_contact_area(mean_pressure, previous_area, amplitude, wavelength, mate
     Returns
     -------
     float
-        A_i [m^2]; η_i = f_i² cells per unit area pairs with the per-cell Ā (spec §8 #3 [I]),
+        A_i [m^2]; η_i = f_i² cells per unit area pairs with the per-cell Ā (theory.md §8 #3 [I]),
         and the min is JS assumption (d).
     """
     cells = previous_area / wavelength**2  # η_i A_{i-1}

@@ -7,8 +7,8 @@ interpolation of the coarse face's corners (entries 1/2 or 1/4, ``geometry.mesh`
 nodes (u = 0) have no reduced dof: their rows of P are empty. The linear systems are
 P^T K P du_red = -P^T R (MatPtAP with the pattern reused), exact in serial and in parallel.
 
-dolfinx_mpc 0.5 is not used: it silently drops constraints on this machine's build (see the
-field notes).
+dolfinx_mpc 0.5 is not used: with Debian's dolfinx 0.5.2 build it gave wrong periodic fields at
+64^2 (docs/method.md).
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Multi-scale static friction with junction growth (spec §6; smoke values §9.6)."""
+"""Multi-scale static friction with junction growth (theory.md §6; smoke values §9)."""
 
 import math
 
@@ -17,7 +17,7 @@ TABLE_1_RMS = (0.01, 0.025, 0.05, 0.075, 0.1, 0.125, 0.15, 0.175, 0.2)  # [um], 
 
 @pytest.fixture(scope="module")
 def smoke_scales():
-    """Spec §9.6 protocol: 128² white noise, 1 um spacing, consecutive draws of rng(5)."""
+    """theory.md §9 protocol: 128² white noise, 1 um spacing, consecutive draws of rng(5)."""
     rng = np.random.default_rng(5)
     return {
         sigma: scale_decomposition(Surface(rng.normal(0.0, sigma * UM, (128, 128)), UM))
@@ -25,13 +25,13 @@ def smoke_scales():
     }
 
 
-SMOKE = [  # sigma [um], F*, A_r/A_n under normal load only, mu_s (spec §9.6)
+SMOKE = [  # sigma [um], F*, A_r/A_n under normal load only, mu_s (theory.md §9)
     (0.01, 0.155, 0.1196, 0.5950),
     (0.01, 1.86, 1.0, 0.3104),
     (0.05, 0.155, 0.0592, 0.2638),
     (0.05, 0.62, 0.2369, 0.2638),
-    # The spec lists mu_s = 0.2638 for all three loads of sigma = 0.05 um; at F* = 1.86 this
-    # implementation gives 0.263690, i.e. 0.2637 (reported; the area ratio agrees).
+    # The hand calculation gave mu_s = 0.2638 for all three loads of sigma = 0.05 um; at
+    # F* = 1.86 this implementation gives 0.263690, i.e. 0.2637 (the area ratio agrees).
     (0.05, 1.86, 0.7107, 0.2637),
     (0.1, 0.155, 0.0550, 0.2049),
     (0.1, 1.86, 0.6601, 0.2049),
@@ -87,7 +87,7 @@ def test_variant_a_converges_at_the_second_iteration(smoke_scales):
 
 
 def test_variant_b_converges_to_the_normal_only_value(smoke_scales):
-    # spec §6: sigma = 0.05 um, F* = 0.155: A gives 0.2638, B gives 0.2206 = tau_c A_r / F_n.
+    # theory.md §6: sigma = 0.05 um, F* = 0.155: A gives 0.2638, B gives 0.2206 = tau_c A_r / F_n.
     result = static_friction(smoke_scales[0.05], 0.155, MATERIAL, variant="B")
     normal_only = MATERIAL.tau_c * result.area_ratio_normal / (MATERIAL.Sy * 0.155)
     assert result.converged
@@ -121,10 +121,10 @@ def test_shear_stress_reaches_the_shear_strength_on_saturated_fine_scales(smoke_
 
 
 def test_friction_falls_with_plasticity_index_then_levels_off():
-    # Nine iid Gaussian surfaces with Table 1's RMS heights (psi = 132.4 sigma/h, spec §2).
+    # Nine iid Gaussian surfaces with Table 1's RMS heights (psi = 132.4 sigma/h, theory.md §2).
     # mu_s falls strictly up to psi ~ 13 (G5); beyond, it stays on a plateau within 0.2 % and is
     # NOT strictly monotone (it rises by ~0.1 % from G6 to G9): A_r -> F_n / max_i p*_ep,i, and
-    # the reconstructed Eq. 32 peaks at x ~ 20 (spec §4.5). The paper's FEM is not monotone
+    # the reconstructed Eq. 32 peaks at x ~ 20 (theory.md §4.5). The paper's FEM is not monotone
     # between psi 13.20 and 16.59 either.
     rng = np.random.default_rng(0)
     mu_s = np.array([

@@ -35,7 +35,7 @@ def test_uniaxial_strain_closed_form():
     yield_strain = m.Sy / (2.0 * G)
     assert yield_strain == pytest.approx(6.5e-3, rel=1e-12)
     plastic_modulus = K + 4.0 / 3.0 * G * H / (3.0 * G + H)
-    assert plastic_modulus == pytest.approx(168.45e9, rel=1e-4)  # the number
+    assert plastic_modulus == pytest.approx(168.45e9, rel=1e-4)  # K + 4/3 G H / (H + 3 G)
 
     strains = np.linspace(0.0, 4.0 * yield_strain, 41)[1:]
     stresses = axial_stress_path(strains, m)

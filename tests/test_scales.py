@@ -1,4 +1,4 @@
-"""Scale decomposition (Eq. 35* of spec §3; checks of spec §9.8)."""
+"""Scale decomposition (Eq. 35* of theory.md §3; checks of theory.md §9)."""
 
 import numpy as np
 import pytest
@@ -47,7 +47,7 @@ def test_shells_partition_the_variance_parseval():
 
 def test_white_noise_shell_variance_grows_with_the_shell_mode_count():
     # Shell i holds 8i modes, each of mean power sigma^2/N^2: E[V_i] = 8 i sigma^2 / N^2, i.e.
-    # E[Delta_i^2] = 32 sigma^2 i / N^2 (spec §9.6). Averaged over 20 fields, the coarse and fine
+    # E[Delta_i^2] = 32 sigma^2 i / N^2 (theory.md §9). Averaged over 20 fields, the coarse and fine
     # halves each carry a standard error below 0.6 %.
     sigma = AMPLITUDE
     rng = np.random.default_rng(11)

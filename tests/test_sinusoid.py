@@ -1,4 +1,4 @@
-"""Single-scale sinusoid contact (Eqs. 24–37; spec §4, §6 and checks §9.2–§9.5)."""
+"""Single-scale sinusoid contact (Eqs. 24–37; theory.md §4, §6 and checks §9–§9)."""
 
 import math
 
@@ -29,10 +29,10 @@ MATERIAL = Material()
 MPA = 1e6
 UM = 1e-6
 
-# spec §9.2: the elastic single sinusoid
+# theory.md §9: the elastic single sinusoid
 ELASTIC_WAVELENGTH = 127 * UM
 ELASTIC_AMPLITUDE = 0.1 * UM
-# spec §9.3: the elastic-plastic example
+# theory.md §9: the elastic-plastic example
 EP_WAVELENGTH = 10 * UM
 EP_AMPLITUDE = 0.05 * UM
 
@@ -43,7 +43,7 @@ def hertz_area(load, radius, material):
 
 
 def elastic_area_ratio(ratio):
-    """Ā/λ² of the §9.2 sinusoid at p̄ = ratio p*."""
+    """Ā/λ² of the check sinusoid (theory.md §9) at p̄ = ratio p*."""
     f = 1.0 / ELASTIC_WAVELENGTH
     pressure = ratio * complete_contact_pressure(ELASTIC_AMPLITUDE, f, MATERIAL)
     area = elastic_contact_area(pressure, ELASTIC_AMPLITUDE, ELASTIC_WAVELENGTH, MATERIAL)
@@ -109,7 +109,7 @@ def test_critical_amplitude_against_poisson_ratio():
 
 
 def test_c_nu_is_computed_at_the_paper_poisson_ratio():
-    # Exposed, not used anywhere (spec §8 #7).
+    # Exposed, not used anywhere (theory.md §8 #7).
     assert poisson_coefficient_c_nu(MATERIAL) == pytest.approx(-0.0374, abs=5e-5)
     assert poisson_coefficient_c_nu(Material(nu=0.0)) == pytest.approx(0.0017 - 0.0567)
 
@@ -127,7 +127,7 @@ def test_elastic_plastic_complete_pressure_at_the_critical_amplitude():
 def test_elastic_plastic_complete_pressure_table():
     f = 1.0 / EP_WAVELENGTH
     delta_c = critical_amplitude(f, MATERIAL)
-    table = {  # x: (p*_ep / p*, p*_ep / S_y), spec §9.4
+    table = {  # x: (p*_ep / p*, p*_ep / S_y), theory.md §9
         1: (0.9920, 0.825), 2: (0.7989, 1.329), 5: (0.5126, 2.132), 10: (0.3166, 2.634),
         20: (0.1693, 2.817), 30: (0.1094, 2.731), 100: (0.0222, 1.844),
     }
@@ -233,7 +233,7 @@ def test_functions_broadcast_over_arrays():
 
 def test_junction_growth_fit_table():
     tau_c = MATERIAL.tau_c
-    table = {  # (tau, phi): G at r = 1e-4, 1e-2, 0.1, 0.5, 1 (spec §9.5)
+    table = {  # (tau, phi): G at r = 1e-4, 1e-2, 0.1, 0.5, 1 (theory.md §9)
         (tau_c, 1.0): (2.952, 1.219, 1.187, 1.175, 0.995),
         (tau_c, 10.0): (2.657, 1.170, 1.143, 1.121, 0.801),
         (0.0, 1.0): (2.552, 1.054, 1.026, 1.016, 0.860),
@@ -269,7 +269,8 @@ def test_junction_growth_factor_clamps():
 
 
 def test_elastic_plastic_area_never_exceeds_the_cell():
-    # At nu = 0.499, x = 8.4 the Eq. 29 blend overshoots λ² by ~1 % near r_ep = 0.9 (spec §4.4).
+    # At nu = 0.499, x = 8.4 the Eq. 29 blend overshoots λ² by ~1 % near r_ep = 0.9
+    # (theory.md §4.4).
     material = Material(nu=0.499)
     f = 1.0 / EP_WAVELENGTH
     amplitude = 8.4 * critical_amplitude(f, material)

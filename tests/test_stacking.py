@@ -1,4 +1,4 @@
-"""Normal contact of stacked scales (Eqs. 22–23; spec §5 and §9.2)."""
+"""Normal contact of stacked scales (Eqs. 22–23; theory.md §5 and §9)."""
 
 import math
 
@@ -16,7 +16,7 @@ LENGTH = 127e-6  # [m]
 
 
 def single_scale(amplitude, length=LENGTH):
-    """The one-sinusoid 'surface' of spec §9.2: λ = L, Δ = amplitude [m]."""
+    """The one-sinusoid 'surface' of theory.md §9: λ = L, Δ = amplitude [m]."""
     return Scales(
         wavelength=[length], frequency=[1.0 / length], amplitude=[amplitude],
         variance=[amplitude**2 / 4.0], length=length,

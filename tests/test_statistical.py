@@ -1,4 +1,4 @@
-"""CKE (Eq. 8) and LET (Eq. 20) statistical friction models (spec §7; hand values §9.7)."""
+"""CKE (Eq. 8) and LET (Eq. 20) statistical friction models (theory.md §7; hand values §9)."""
 
 import math
 

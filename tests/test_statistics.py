@@ -1,4 +1,4 @@
-"""Tests of geometry.statistics against the paper's Table 1 and spec section 9.1."""
+"""Tests of geometry.statistics against the paper's Table 1 and docs/theory.md §2."""
 
 import math
 
@@ -82,7 +82,8 @@ def test_closed_form_for_iid_heights_is_132_44_sigma_over_h():
 
 
 def test_plasticity_index_prefactor_for_the_paper_material():
-    assert plasticity_index(1.0, 1.0, PAPER) == pytest.approx(86.638, rel=1e-5)  # spec 9.1
+    # 2 E' / (pi C S_y), theory.md §2
+    assert plasticity_index(1.0, 1.0, PAPER) == pytest.approx(86.638, rel=1e-5)
 
 
 def test_eq12_refuses_narrow_band_and_flat_inputs():
