@@ -26,7 +26,7 @@ from pathlib import Path
 
 from roughfriction.case import FemCase, Loading, MeshOptions, SolverOptions
 from roughfriction.errors import ConvergenceError, InputError
-from roughfriction.geometry.surface import Surface, surface_on_fem_grid
+from roughfriction.geometry.surface import Surface, surface_on_fem_grid, validate_grid_points
 from roughfriction.material import Material
 from roughfriction.studies.refinement import refined_case, richardson
 
@@ -97,8 +97,7 @@ def case_from_args(args, surface: Surface, comm=None) -> FemCase:
         mesh = MeshOptions(**config.get("mesh", {}))
         n = setting("n")
         if n is not None:
-            if isinstance(n, bool) or not isinstance(n, int) or n < 4:
-                raise InputError(f"--n must be an integer >= 4, got {n!r}")
+            n = validate_grid_points(n)
             if comm is not None:
                 check_memory(n * (2 if getattr(args, "refine", False) else 1), mesh, comm)
         return FemCase(
