@@ -18,7 +18,7 @@ attribute that says so (``roughfriction post``, the runs table and the stress ma
 A normal-only case is also answered by the finished sliding run of the same case: its preload is
 the same computation (read it with :func:`studies.post.preload_state`).
 
-    python -m studies.cache G5 --load 0.155 0.62 --n 16     # fill the cache, print the paths
+    roughfriction runs G5 --load 0.155 0.62 --n 16     # fill the cache, print the paths
 
 Imports without dolfinx; the FEM stack is imported when a run is computed.
 """
