@@ -293,6 +293,23 @@ def surface_on_fem_grid(surface: Surface, n: int | None) -> Surface:
     return resample(surface, n) if n < surface.n else spectral_interpolate(surface, n)
 
 
+def windows(surface: Surface, n: int) -> list[Surface]:
+    """The non-overlapping n x n windows of a surface at its own spacing, row by row.
+
+    A window keeps the surface's spacing, so for i.i.d. heights it has the surface's slopes and
+    psi; re-gridding to n points (``resample``) would be a smoother surface instead. A window is
+    not periodic: the FEM closes it periodically like any measured map.
+    """
+    n = validate_grid_points(n)
+    per_side = surface.n // n
+    if per_side < 1:
+        raise InputError(f"surface {surface.name!r} has {surface.n} points per side: no "
+                         f"{n} x {n} window")
+    z = surface.heights
+    return [Surface(z[i * n:(i + 1) * n, j * n:(j + 1) * n], surface.spacing, surface.name)
+            for i in range(per_side) for j in range(per_side)]
+
+
 def validate_grid_points(n) -> int:
     """Return ``n`` as an int after checking it is a number of points per side (integer >= 4)."""
     if isinstance(n, bool) or not isinstance(n, int | np.integer) or n < 4:

@@ -8,7 +8,10 @@ paper). N equal to the surface's points uses the heights as they are; a smaller 
 surface over its scan length with a bicubic spline (``geometry.surface.resample``); a larger N
 refines it by Fourier interpolation (``geometry.surface.spectral_interpolate``, the paper's
 spectral interpolation). Coarsening changes the surface (fewer, wider-spaced points: lower
-slopes), so results at different N are different surfaces, not a mesh-convergence study.
+slopes), so results at different N are different surfaces, not a mesh-convergence study: the
+command says so on stderr with the psi of both. ``--window K`` meshes instead an N x N window of
+the surface at its own spacing (``best``: the window whose psi is nearest the whole surface's),
+the right choice for i.i.d. heights, whose windows have the surface's psi.
 
 A run writes every step and its inputs to an HDF5 file (``--output``, on rank 0) and returns the
 JSON summary. If the preload or the sliding does not converge, the partial results are written,
@@ -41,6 +44,10 @@ def add_fem_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--n", type=int, metavar="N",
                         help="surface cells per side of the FEM grid (default: the surface's "
                         "points per side)")
+    parser.add_argument("--window", metavar="K",
+                        help="with --n below the surface's points: mesh the K-th N x N window of "
+                        "the surface at its own spacing (1, 2, ... row by row, or 'best': psi "
+                        "nearest the whole surface's) instead of re-gridding it")
     parser.add_argument("--elastic", action="store_true", default=None,
                         help="linear elastic solid (no plasticity)")
     parser.add_argument("--normal-only", action="store_true", default=None,
@@ -101,7 +108,7 @@ def case_from_args(args, surface: Surface, comm=None) -> FemCase:
             if comm is not None:
                 check_memory(n * (2 if getattr(args, "refine", False) else 1), mesh, comm)
         return FemCase(
-            surface=surface_on_fem_grid(surface, n),
+            surface=meshed_surface(surface, n, getattr(args, "window", None), comm),
             loading=Loading(float(load), normal_only=bool(setting("normal_only"))),
             material=Material(**config.get("material", {})),
             mesh=mesh,
@@ -109,6 +116,35 @@ def case_from_args(args, surface: Surface, comm=None) -> FemCase:
         )
     except TypeError as error:
         raise InputError(f"bad case settings: {error}") from None
+
+
+def meshed_surface(surface: Surface, n: int | None, window: str | None, comm=None) -> Surface:
+    """The surface the FEM meshes on n x n cells: window ``window`` ('best' or 1, 2, ...) at
+    the surface's own spacing, or the surface re-gridded (``surface_on_fem_grid``), which is
+    noted on stderr (rank 0) with the psi before and after when it makes it smoother."""
+    from roughfriction.geometry.statistics import surface_statistics
+    from roughfriction.studies.paper import surface_window
+
+    if window is not None:
+        if n is None or n >= surface.n:
+            raise InputError(f"--window needs --n below the surface's {surface.n} points per side")
+        if window == "best":
+            return surface_window(surface, n)
+        try:
+            index = int(window)
+        except ValueError:
+            raise InputError(f"--window takes 'best' or a window number, got {window!r}") from None
+        if index < 1:
+            raise InputError(f"--window counts from 1, got {index}")
+        return surface_window(surface, n, index - 1)
+    meshed = surface_on_fem_grid(surface, n)
+    if meshed.n < surface.n and (comm is None or comm.rank == 0):
+        psi = [surface_statistics(one, Material()).psi for one in (surface, meshed)]
+        print(f"note: {surface.name or 'surface'} re-gridded from {surface.n} to {meshed.n} "
+              f"points per side over its scan length: psi {psi[0]:.3g} -> {psi[1]:.3g} (a "
+              f"smoother surface); --window best meshes a {meshed.n} x {meshed.n} window at "
+              "its own spacing", file=sys.stderr)
+    return meshed
 
 
 def default_output(case: FemCase) -> Path:
@@ -131,6 +167,7 @@ def run_fem(args) -> dict:
         results).
     """
     from mpi4py import MPI
+    from roughfriction.geometry.statistics import surface_statistics
     from roughfriction.scripts.cli import surface_from_args
     from roughfriction.solver.results import save_run
     from roughfriction.solver.run import run
@@ -138,11 +175,12 @@ def run_fem(args) -> dict:
     comm = MPI.COMM_WORLD
     case = case_from_args(args, surface_from_args(args), comm)
     output = Path(args.output) if args.output else default_output(case)
+    meshed = {"psi_meshed": surface_statistics(case.surface, case.material).psi}
     outcome = run(case, comm, xdmf_directory=args.xdmf)
     if not args.refine:
         save_run(output, case, outcome, comm)
         _check_converged(outcome, output)
-        return outcome.result.summary()
+        return {**outcome.result.summary(), **meshed}
 
     coarse_output = output.with_name(f"{output.stem}_coarse{output.suffix}")
     save_run(coarse_output, case, outcome, comm)
@@ -152,7 +190,7 @@ def run_fem(args) -> dict:
     estimate = discretisation_error(outcome.result.summary(), fine.result.summary())
     save_run(output, fine_case, fine, comm, estimate=estimate)
     _check_converged(fine, output)
-    return {**fine.result.summary(), **estimate}
+    return {**fine.result.summary(), **estimate, **meshed}
 
 
 def discretisation_error(coarse: dict, fine: dict) -> dict:

@@ -62,25 +62,32 @@ def fem_surface(name: str, n: int, window: int | None = None):
     (``geometry.surface.surface_on_fem_grid``): below 128 a smoother surface, whose psi the
     figures report as ``psi_fem``.
     """
-    from roughfriction.errors import InputError
     from roughfriction.geometry.generate import builtin_surface
-    from roughfriction.geometry.statistics import surface_statistics
-    from roughfriction.geometry.surface import Surface, surface_on_fem_grid
-    from roughfriction.material import Material
+    from roughfriction.geometry.surface import surface_on_fem_grid
 
     surface = builtin_surface(name)
     if name not in GAUSSIAN_SURFACES or n >= surface.n:
         return surface_on_fem_grid(surface, n)
-    per_side = surface.n // n
-    windows = [Surface(surface.heights[i * n:(i + 1) * n, j * n:(j + 1) * n], surface.spacing,
-                       name) for i in range(per_side) for j in range(per_side)]
+    return surface_window(surface, n, window)
+
+
+def surface_window(surface, n: int, window: int | None = None):
+    """Window ``window`` (0-based, row by row) of the n x n windows of ``surface`` at its own
+    spacing (``geometry.surface.windows``); None: the one whose psi is nearest the whole
+    surface's."""
+    from roughfriction.errors import InputError
+    from roughfriction.geometry.statistics import surface_statistics
+    from roughfriction.geometry.surface import windows
+    from roughfriction.material import Material
+
+    candidates = windows(surface, n)
     if window is None:
-        psi = [surface_statistics(one, Material()).psi for one in (surface, *windows)]
+        psi = [surface_statistics(one, Material()).psi for one in (surface, *candidates)]
         window = int(np.argmin(np.abs(np.array(psi[1:]) - psi[0])))
-    if not 0 <= window < len(windows):
-        raise InputError(f"{name} has {len(windows)} windows of {n} x {n} points, "
+    if not 0 <= window < len(candidates):
+        raise InputError(f"{surface.name} has {len(candidates)} windows of {n} x {n} points, "
                          f"not {window + 1}")
-    return windows[window]
+    return candidates[window]
 
 
 def fem_case(name: str, load: float, n: int, normal_only: bool = False):

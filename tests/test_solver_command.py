@@ -9,7 +9,9 @@ import pytest
 from roughfriction.case import Loading, SolverOptions  # noqa: E402
 from roughfriction.errors import InputError  # noqa: E402
 from roughfriction.geometry.generate import builtin_surface  # noqa: E402
+from roughfriction.geometry.statistics import surface_statistics
 from roughfriction.geometry.surface import surface_on_fem_grid
+from roughfriction.material import Material
 from roughfriction.scripts.fem import main  # noqa: E402
 from roughfriction.solver.results import count_patches  # noqa: E402
 
@@ -133,3 +135,31 @@ def test_refine_reports_the_finer_mesh_with_an_error_estimate(tmp_path, capsys):
         assert json.loads(h5.attrs["inputs"])["surface"]["n"] == 16
     with h5py.File(tmp_path / "run_coarse.h5") as h5:
         assert json.loads(h5.attrs["summary"])["mu_s"] == summary["mu_s_coarse"]
+
+
+@pytest.mark.fem
+def test_window_meshes_the_surface_at_its_own_spacing(tmp_path, capsys):
+    """G5 (i.i.d., psi 13.2) on 8 x 8 cells: a window keeps its psi, a re-grid is smoother and
+    says so on stderr."""
+    whole = surface_statistics(builtin_surface("G5"), Material()).psi
+    common = ["G5", "--n", "8", "--load", "0.3", "--elastic", "--normal-only", "--json"]
+    assert main([*common, "--window", "best", "--output", str(tmp_path / "w.h5")]) == 0
+    captured = capsys.readouterr()
+    assert json.loads(captured.out)["psi_meshed"] == pytest.approx(whole, rel=0.03)
+    assert "re-gridded" not in captured.err
+    assert main([*common, "--output", str(tmp_path / "r.h5")]) == 0
+    captured = capsys.readouterr()
+    assert json.loads(captured.out)["psi_meshed"] < 0.5 * whole
+    assert f"psi {whole:.3g} -> " in captured.err and "--window best" in captured.err
+
+
+@pytest.mark.parametrize("window, message", [
+    (["--window", "0"], "counts from 1"),
+    (["--window", "x"], "'best' or a window number"),
+    (["--window", "257"], "not 257"),
+    (["--n", "128", "--window", "1"], "needs --n below"),
+])
+def test_bad_windows(window, message, capsys):
+    argv = ["G5", "--load", "0.3", *(["--n", "8"] if "--n" not in window else []), *window]
+    assert main(argv) == 2
+    assert message in capsys.readouterr().err
