@@ -74,3 +74,18 @@ def test_two_ranks_equal_serial():
     np.testing.assert_allclose(values[:, 1], expected[:, 1], rtol=0, atol=1e-6 * scale)
     np.testing.assert_allclose(values[:, 2], expected[:, 2], rtol=1e-6)
     assert serial[-1][0] == "tangential"
+
+
+def test_a_converged_two_rank_run_converges_again():
+    """G2 at F* = 0.155, the low-load case where patches are smallest (a 16 x 16 window at its
+    own spacing, iterative solver): three repeats on 2 ranks all converge to the same mu_s."""
+    from roughfriction.solver.run import run
+    from roughfriction.studies.paper import fem_case
+
+    case = fem_case("G2", 0.155, 16)
+    mu = []
+    for _ in range(3):
+        result = run(case, MPI.COMM_WORLD, progress=lambda record: None).result
+        assert result.converged, result.message
+        mu.append(result.mu_s)
+    np.testing.assert_allclose(mu, mu[0], rtol=1e-6)
