@@ -178,17 +178,17 @@ def run_fem(args) -> dict:
     meshed = {"psi_meshed": surface_statistics(case.surface, case.material).psi}
     outcome = run(case, comm, xdmf_directory=args.xdmf)
     if not args.refine:
-        save_run(output, case, outcome, comm)
+        save_run(output, case, outcome, comm, extra=meshed)
         _check_converged(outcome, output)
         return {**outcome.result.summary(), **meshed}
 
     coarse_output = output.with_name(f"{output.stem}_coarse{output.suffix}")
-    save_run(coarse_output, case, outcome, comm)
+    save_run(coarse_output, case, outcome, comm, extra=meshed)
     _check_converged(outcome, coarse_output)
     fine_case = refined_case(case, 2)
     fine = run(fine_case, comm)
     estimate = discretisation_error(outcome.result.summary(), fine.result.summary())
-    save_run(output, fine_case, fine, comm, estimate=estimate)
+    save_run(output, fine_case, fine, comm, extra={**estimate, **meshed})
     _check_converged(fine, output)
     return {**fine.result.summary(), **estimate, **meshed}
 

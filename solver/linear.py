@@ -17,6 +17,10 @@ same mu_s, to 1e-9, with it as with GAMG):
   iterations grow past ``REBUILD_FACTOR`` times the count of the freshly built preconditioner.
 
 Either way a solve that fails with a reused preconditioner is retried once with a fresh one;
+if a fresh GAMG hierarchy fails too, the solver switches for the rest of the run to MUMPS LU
+factors as preconditioner, reused like the direct method's (GMRES with GAMG breaks down on
+some sliding tangents, whose slipping points below the ramp pressure make them
+non-symmetric);
 a CG solve that finds the fresh preconditioner or the operator indefinite is retried with
 GMRES, which needs neither to be definite; and a solve that stops at the iteration limit is
 kept if it reduced the residual by at least ``INEXACT_ACCEPTED`` (an inexact Newton direction:
@@ -97,6 +101,7 @@ class LinearSolver:
         self._rebuild = True
         self.last_iterations = 0
         self.rebuilds = 0
+        self.fell_back = ""  # why the iterative method gave way to factorisations, if it did
 
     def set_operator(self, matrix: PETSc.Mat, symmetric: bool = True) -> None:
         """Use ``matrix`` (new values, same pattern) for the next solves; CG if it is
@@ -133,13 +138,27 @@ class LinearSolver:
             self._apply(rhs, solution, fresh=False)
         if self.ksp.getConvergedReason() < 0 and not self._good_enough(rhs):
             reason = self.ksp.getConvergedReason()
-            raise LinearSolveError(f"Krylov solver {self.ksp.getType()} ({self.method}) "
-                                   f"{converged_reason_name(reason)} ({reason}) after "
-                                   f"{self.ksp.getIterationNumber()} iterations")
+            failure = (f"Krylov solver {self.ksp.getType()} ({self.method}) "
+                       f"{converged_reason_name(reason)} ({reason}) after "
+                       f"{self.ksp.getIterationNumber()} iterations")
+            if self.method != "iterative":
+                raise LinearSolveError(failure)
+            self.fell_back = failure
+            self._precondition_with_factors()
+            return self.solve(rhs, solution, relative_tolerance=relative_tolerance)
         self.last_iterations = max(self.ksp.getIterationNumber(), 1)
         if fresh:
             self._fresh_iterations = self.last_iterations
         return self.last_iterations
+
+    def _precondition_with_factors(self) -> None:
+        """From now on precondition with MUMPS LU factors of the operator, reused as the
+        direct method reuses its Cholesky factors (LU: the operator may be non-symmetric)."""
+        self.method = "direct"
+        pc = self.ksp.getPC()
+        pc.setType("lu")
+        pc.setFactorSolverType("mumps")
+        self._rebuild, self._fresh_iterations = True, None
 
     def _good_enough(self, rhs: PETSc.Vec) -> bool:
         """The failed solve stopped at its iteration limit with the (unpreconditioned)

@@ -207,7 +207,7 @@ def git_revision() -> str:
 
 
 def write_hdf5(path: Path, inputs: dict, result: FemResult, maps: dict, note: str = "",
-               estimate: dict | None = None) -> None:
+               extra: dict | None = None) -> None:
     """Write a run to HDF5 atomically (temporary file, then rename). Call on one rank.
 
     Layout: root attributes ``inputs``, ``summary`` (JSON), ``versions``, ``git``,
@@ -226,10 +226,10 @@ def write_hdf5(path: Path, inputs: dict, result: FemResult, maps: dict, note: st
         Name -> N x N array (e.g. contact at the end of preload and at inception).
     note : str
         How the run was obtained, if not the usual way (root attribute ``note``).
-    estimate : dict, optional
-        Discretisation error estimate (e.g. ``mu_s_error``), added to the summary.
+    extra : dict, optional
+        Added to the summary (e.g. the discretisation error estimate ``mu_s_error``).
     """
-    summary = {**result.summary(), **(estimate or {})}
+    summary = {**result.summary(), **(extra or {})}
     atomic_write(Path(path), lambda temporary: _write_hdf5(temporary, inputs, result, summary,
                                                            maps, note))
 
@@ -262,7 +262,7 @@ def _write_hdf5(path, inputs: dict, result: FemResult, summary: dict, maps: dict
 
 
 def save_run(path: Path, case: FemCase, fem_run, comm, note: str = "",
-             estimate: dict | None = None) -> None:
+             extra: dict | None = None) -> None:
     """Write a run's results file (rank 0 writes, atomically; every rank waits for it).
 
     The file holds the case's inputs, the records and summary, and the surface maps of the
@@ -282,10 +282,11 @@ def save_run(path: Path, case: FemCase, fem_run, comm, note: str = "",
     note : str
         How the run was obtained, if not the usual way (e.g. on a standalone path after its
         shared normal path failed, see :mod:`roughfriction.studies.cache`).
-    estimate : dict, optional
-        Discretisation error estimate added to the summary (``fem --refine``).
+    extra : dict, optional
+        Added to the summary (``fem``: the psi of the meshed surface; with ``--refine`` the
+        discretisation error estimate).
     """
     if comm.rank == 0:
         maps = {"surface_heights": case.surface.heights, **fem_run.maps}
-        write_hdf5(path, case.inputs(), fem_run.result, maps, note, estimate)
+        write_hdf5(path, case.inputs(), fem_run.result, maps, note, extra)
     comm.barrier()

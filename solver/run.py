@@ -245,7 +245,8 @@ def run_loads(case: FemCase, loads: Sequence[float], comm: MPI.Comm = MPI.COMM_W
 
         timings = {"setup_s": setup_s, "preload_s": preload_s, "sliding_s": sliding_s,
                    "total_s": setup_s + preload_s + sliding_s}
-        run_sizes = {**sizes, "peak_memory_gb": comm.allreduce(peak_memory_gb(), op=MPI.SUM)}
+        run_sizes = {**sizes, "peak_memory_gb": comm.allreduce(peak_memory_gb(), op=MPI.SUM),
+                     "linear_solver_fallback": equilibrium.linear_solver.fell_back}
         result = FemResult(list(path.records), outcome.converged, outcome.message,
                            case.loading.normal_only, timings, run_sizes)
         runs[index] = FemRun(result, maps, equilibrium, block)
