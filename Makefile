@@ -84,12 +84,14 @@ $(FEM_FIGURES): setup
 fem-runs: setup
 	@$(MPIRUN) $(VENV)/bin/roughfriction figure runs --n $(N)
 
+# ... then the paper's statements about them, checked against their CSVs: figures/claims.md
 figures: $(SURFACE_FIGURES) $(THEORY_FIGURES) fem-runs $(FEM_FIGURES)
+	@$(VENV)/bin/roughfriction figure claims
 
 # Copy the figures the README shows into docs/figures/ (committed; figures/ is not).
 gallery: figures
 	@cp $(addprefix figures/,$(addsuffix .png,$(SURFACE_FIGURES) $(THEORY_FIGURES) \
-	  $(FEM_FIGURES))) docs/figures/
+	  $(FEM_FIGURES))) figures/claims.md docs/figures/
 
 # --- benchmarks -------------------------------------------------------------------------
 bench-multiscale: setup

@@ -175,12 +175,17 @@ def cmd_figure(args) -> dict:
         from roughfriction.scripts.figures import compute_fem_runs
 
         return {"fem_cases": compute_fem_runs(n=args.n)}
+    if args.name == "claims":  # the paper's statements checked against the figures' CSVs
+        from roughfriction.scripts.claims import write_claims
+        from roughfriction.scripts.figures import FIGURE_DIR
+
+        return {"claims": str(write_claims(FIGURE_DIR))}
     if args.name == "all":
         names = list(FIGURES)
     elif args.name in FIGURES:
         names = [args.name]
     else:
-        raise InputError(f"unknown figure {args.name!r}; known: all, runs, "
+        raise InputError(f"unknown figure {args.name!r}; known: all, runs, claims, "
                          f"{', '.join(FIGURES)}")
     return {name: str(make_figure(name, n=args.n)) for name in names}
 
@@ -253,7 +258,8 @@ def build_parser() -> argparse.ArgumentParser:
     post.set_defaults(run=cmd_post)
 
     figure = commands.add_parser("figure", help="make one of the paper's figures (PNG + CSV)")
-    figure.add_argument("name", help="figNN, 'all', or 'runs' (compute every FEM figure's runs)")
+    figure.add_argument("name", help="figNN, 'all', 'runs' (compute every FEM figure's runs) or "
+                        "'claims' (the paper's statements checked against figures/*.csv)")
     figure.add_argument("--n", type=int, metavar="N",
                         help="FEM figures: surface cells per side of the runs (default "
                         "$ROUGHFRICTION_FEM_N, else scripts.cases.DEFAULT_FEM_N); runs are kept "

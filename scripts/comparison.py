@@ -1,7 +1,9 @@
 """mu_s of the FEM beside the multi-scale model and the statistical CKE and LET models
 (Figs. 22–28). The theory uses each surface on its own 128 x 128 grid; the FEM the surface of
 ``studies.paper.fem_surface`` (for G1–G9 a window at their own spacing), whose psi is in the
-``psi_fem`` column and, where it is more than 3 % off the surface's, on the figure. A
+``psi_fem`` column and, where it is more than 3 % off the surface's, on the figure; the
+columns ``fem_pressure_over_Sy`` and ``fem_nodes_per_patch`` say how well the mesh resolves
+the contact patches (``scripts.fem_views``). A
 statistical value outside its model's published range (``multiscale.statistical``) is drawn
 hollow on a dotted line and labelled so."""
 
@@ -11,7 +13,14 @@ from roughfriction.geometry.statistics import surface_statistics
 from roughfriction.material import Material
 from roughfriction.multiscale.scales import scale_decomposition
 from roughfriction.multiscale.theory import evaluate_theory
-from roughfriction.scripts.fem_views import fem_label, fem_mu, fem_mu_at_least, fem_psi
+from roughfriction.scripts.fem_views import (
+    fem_contact_pressure,
+    fem_label,
+    fem_mu,
+    fem_mu_at_least,
+    fem_nodes_per_patch,
+    fem_psi,
+)
 from roughfriction.scripts.figures import new_axes
 from roughfriction.studies.paper import FEM_LOAD_SWEEP, GAUSSIAN_SURFACES, LOAD_SWEEP, fem_case
 
@@ -65,6 +74,8 @@ def psi_sweep(load: float, runs):
         "psi_fem": np.array([fem_psi(run) for run in runs]),
         "mu_fem": mu_fem,
         "mu_fem_at_least": at_least,
+        "fem_pressure_over_Sy": np.array([fem_contact_pressure(run) for run in runs]),
+        "fem_nodes_per_patch": np.array([fem_nodes_per_patch(run) for run in runs]),
         "mu_multiscale": np.array([result.mu_s for result in theory]),
         "mu_cke": np.array([result.mu_cke for result in theory]),
         "cke_valid": np.array([result.cke_valid for result in theory]),
@@ -131,6 +142,10 @@ def load_sweep(name: str, runs):
         "load_star": np.concatenate([fem_loads, loads, loads]),
         "psi_fem": np.concatenate([psi_fem, np.full(2 * len(loads), np.nan)]),
         "mu_s": np.concatenate([mu_fem, [result.mu_s for result in theory], mu_let]),
+        "fem_pressure_over_Sy": np.concatenate([[fem_contact_pressure(run) for run in runs],
+                                                np.full(2 * len(loads), np.nan)]),
+        "fem_nodes_per_patch": np.concatenate([[fem_nodes_per_patch(run) for run in runs],
+                                               np.full(2 * len(loads), np.nan)]),
         "note": np.array(fem_notes + [""] * len(loads) + notes),
     }
     return fig, columns

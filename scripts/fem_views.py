@@ -49,6 +49,26 @@ def fem_mu_at_least(run) -> float:
     return float(np.max(ratios)) if len(ratios) > 1 else float("nan")
 
 
+def fem_contact_pressure(run) -> float:
+    """Mean contact pressure at sliding inception over the yield strength, F_n / (A_s S_y) [-]
+    (NaN without inception). Fully plastic contact of a blunt asperity carries about 3 S_y
+    (Tabor's hardness), so a value far above that marks contact patches the mesh does not
+    resolve (area too small, mu_s too low)."""
+    summary = run.summary
+    if summary.get("mu_s") is None or not summary.get("area_ratio_sliding"):
+        return float("nan")
+    nominal_area = (run.n * run.spacing) ** 2
+    return float(summary["Fn"] / (summary["area_ratio_sliding"] * nominal_area
+                                  * run.inputs["material"]["Sy"]))
+
+
+def fem_nodes_per_patch(run) -> float:
+    """Contact nodes per patch at inception (else at the end of the preload) [-]; the paper
+    reads fewer than 4 as inaccurate (its Fig. 10)."""
+    value = run.summary.get("nodes_per_patch")
+    return float("nan") if value is None else float(value)
+
+
 def fem_label(runs) -> str:
     """``FEM, N = 32`` (the runs' grid)."""
     return f"FEM, N = {runs[0].n}"
