@@ -174,6 +174,24 @@ def test_mu_vs_load_columns():
     assert all((columns["note"][let] == "") == (columns["load_star"][let] <= 0.3))
 
 
+def test_mu_vs_psi_reports_how_well_the_patches_are_resolved():
+    """F_n / (A_s S_y) and nodes per patch at inception, NaN without a contact area."""
+    from roughfriction.scripts import fig22
+
+    cases = fig22.fem_cases(8)
+    runs = fake_runs(cases, [0.1] * 9)
+    for run, case in zip(runs, cases, strict=True):
+        run.spacing = case.surface.spacing
+        nominal = (case.surface.n * case.surface.spacing) ** 2
+        run.summary.update(Fn=0.155 * nominal * 1e9, area_ratio_sliding=0.05,
+                           nodes_per_patch=2.5)
+    runs[8].summary["area_ratio_sliding"] = None
+    _, columns = fig22.make(runs)
+    np.testing.assert_allclose(columns["fem_pressure_over_Sy"][:8], 0.155 / 0.05)
+    assert np.isnan(columns["fem_pressure_over_Sy"][8])
+    assert list(columns["fem_nodes_per_patch"]) == [2.5] * 9
+
+
 def test_mu_vs_load_notes_a_failed_run_with_its_lower_bound(monkeypatch):
     from roughfriction.scripts import fem_views, fig28
 
