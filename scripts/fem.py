@@ -107,10 +107,11 @@ def case_from_args(args, surface: Surface, comm=None) -> FemCase:
             n = validate_grid_points(n)
             if comm is not None:
                 check_memory(n * (2 if getattr(args, "refine", False) else 1), mesh, comm)
+        material = Material(**config.get("material", {}))
         return FemCase(
-            surface=meshed_surface(surface, n, getattr(args, "window", None), comm),
+            surface=meshed_surface(surface, n, getattr(args, "window", None), material, comm),
             loading=Loading(float(load), normal_only=bool(setting("normal_only"))),
-            material=Material(**config.get("material", {})),
+            material=material,
             mesh=mesh,
             solver=SolverOptions(**solver),
         )
@@ -118,10 +119,12 @@ def case_from_args(args, surface: Surface, comm=None) -> FemCase:
         raise InputError(f"bad case settings: {error}") from None
 
 
-def meshed_surface(surface: Surface, n: int | None, window: str | None, comm=None) -> Surface:
+def meshed_surface(surface: Surface, n: int | None, window: str | None, material: Material,
+                   comm=None) -> Surface:
     """The surface the FEM meshes on n x n cells: window ``window`` ('best' or 1, 2, ...) at
     the surface's own spacing, or the surface re-gridded (``surface_on_fem_grid``), which is
-    noted on stderr (rank 0) with the psi before and after when it makes it smoother."""
+    noted on stderr (rank 0) with the psi (for ``material``) before and after when it makes it
+    smoother."""
     from roughfriction.geometry.statistics import surface_statistics
     from roughfriction.studies.paper import surface_window
 
@@ -139,7 +142,7 @@ def meshed_surface(surface: Surface, n: int | None, window: str | None, comm=Non
         return surface_window(surface, n, index - 1)
     meshed = surface_on_fem_grid(surface, n)
     if meshed.n < surface.n and (comm is None or comm.rank == 0):
-        psi = [surface_statistics(one, Material()).psi for one in (surface, meshed)]
+        psi = [surface_statistics(one, material).psi for one in (surface, meshed)]
         print(f"note: {surface.name or 'surface'} re-gridded from {surface.n} to {meshed.n} "
               f"points per side over its scan length: psi {psi[0]:.3g} -> {psi[1]:.3g} (a "
               f"smoother surface); --window best meshes a {meshed.n} x {meshed.n} window at "
