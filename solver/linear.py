@@ -17,15 +17,13 @@ same mu_s, to 1e-9, with it as with GAMG):
   iterations grow past ``REBUILD_FACTOR`` times the count of the freshly built preconditioner.
 
 Either way a solve that fails with a reused preconditioner is retried once with a fresh one;
-if a fresh GAMG hierarchy fails too, the solver switches for the rest of the run to MUMPS LU
-factors as preconditioner, reused like the direct method's (GMRES with GAMG breaks down on
-some sliding tangents, whose slipping points below the ramp pressure make them
-non-symmetric);
 a CG solve that finds the fresh preconditioner or the operator indefinite is retried with
-GMRES, which needs neither to be definite; and a solve that stops at the iteration limit is
-kept if it reduced the residual by at least ``INEXACT_ACCEPTED`` (an inexact Newton direction:
-the Newton loop judges convergence by the nonlinear residual alone, so this can slow it but not
-change its answer).
+GMRES, which needs neither to be definite; a solve that stops at the iteration limit is kept if
+it reduced the residual by at least ``INEXACT_ACCEPTED`` (an inexact Newton direction: the
+Newton loop judges convergence by the nonlinear residual alone, so this can slow it but not
+change its answer). If a fresh GAMG hierarchy still fails (GMRES breaks down on some sliding
+tangents, made non-symmetric by slipping points below the ramp pressure), the solver switches
+for the rest of the run to MUMPS LU factors as preconditioner, reused like the direct method's.
 """
 
 from __future__ import annotations
