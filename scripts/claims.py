@@ -51,71 +51,121 @@ def _row(figure: str, paper: str, ours: str, agrees: bool | None) -> tuple:
     return figure, paper, ours, verdict
 
 
-def psi_trend(table: dict, load: float) -> list[tuple]:
-    """Figs. 22-25: mu_s falls with psi (FEM and multi-scale)."""
-    fem, theory = table["mu_fem"], table["mu_multiscale"]
+def junction_growth(t: dict) -> list[tuple]:
+    """Fig. 15: the 2L contact area grows from the preload to sliding inception."""
+    area = t["area_ratio"]
+    growth = area[-1] / area[0] - 1.0 if len(area) > 1 and area[0] > 0 else np.nan
+    return [_row("15", f"2L junction growth {100 * PAPER_JUNCTION_GROWTH:.2f} %",
+                 f"{100 * growth:+.1f} % (2L stand-in)",
+                 None if not np.isfinite(growth) else bool(growth > 0))]
+
+
+def area_trends(t: dict) -> list[tuple]:
+    """Fig. 20: A_r/A_n falls with psi at each load; G1 flattened at F* = 1.86."""
+    rows = []
+    for load in np.unique(t["load_star"]):
+        here = t["load_star"] == load
+        areas = t["area_ratio"][here][np.argsort(t["psi"][here])]
+        falls = np.sum(np.diff(areas) < 0)
+        rows.append(_row("20", f"F* = {load:g}: A_r/A_n lower for larger ψ in most cases",
+                         f"G1→G9: {_series(areas)} ({_falls(areas)})",
+                         bool(falls > (len(areas) - 1) / 2)))
+    at = (t["load_star"] == 1.86) & (t["surface"] == "G1")
+    if at.any():
+        area = float(t["area_ratio"][at][0])
+        rows.append(_row("20", "G1 in complete contact at F* = 1.86", f"A_r/A_n = {area:.3f}",
+                         area >= COMPLETE_CONTACT))
+    return rows
+
+
+def psi_sweep(t: dict, figure: str) -> list[tuple]:
+    """Figs. 22-25: mu_s falls with psi (FEM and multi-scale); the multi-scale model lies
+    below the FEM (Fig. 24: except the first point)."""
+    fem, theory = t["mu_fem"], t["mu_multiscale"]
     rows = []
     for label, values in (("FEM", fem), ("multi-scale", theory)):
         finite = values[np.isfinite(values)]
         agrees = None if len(finite) < 2 else bool(finite[-1] < finite[0])
-        rows.append(_row(f"{_figure_of(load)}", f"μ_s decreases as ψ increases ({label})",
+        rows.append(_row(figure, f"μ_s decreases as ψ increases ({label})",
                          f"G1→G9: {_series(values)} ({_falls(values)})", agrees))
+    below, points = int(np.sum(theory < fem)), int(np.sum(np.isfinite(fem)))
+    rows.append(_row(figure, "multi-scale below the FEM"
+                     + (" except the first point" if figure == "24" else ""),
+                     f"below at {below} of {points} FEM points; FEM/multi-scale "
+                     f"{_series(fem / theory)}", below >= points - 1))
     return rows
 
 
-def _figure_of(load: float) -> str:
-    return {0.155: "22", 0.62: "23", 0.93: "24", 1.86: "25"}.get(load, "?")
+def psi_pair(t: dict) -> list[tuple]:
+    """Fig. 22: mu_s of psi = 16.59 (G6) above that of psi = 13.20 (G5)."""
+    g5, g6 = (np.flatnonzero(t["surface"] == name) for name in ("G5", "G6"))
+    if not (len(g5) and len(g6)):
+        return []
+    rows = []
+    for label, key in (("FEM", "mu_fem"), ("multi-scale", "mu_multiscale")):
+        low, high = t[key][g5[0]], t[key][g6[0]]
+        rows.append(_row("22", f"μ_s(ψ = 16.59) > μ_s(ψ = 13.20) ({label})",
+                         f"G6 {high:.4g} vs G5 {low:.4g}", bool(high > low)))
+    return rows
+
+
+def load_sweep(t: dict, figure: str, name: str) -> list[tuple]:
+    """Figs. 26-28: the multi-scale mu_s nearly constant in F*; the FEM approaching it at high
+    load (Fig. 26: the FEM's mu_s falling with load)."""
+    fem, theory = t["model"] == "fem", t["model"] == "multiscale"
+    mu_theory = t["mu_s"][theory]
+    spread = np.nanmax(mu_theory) / np.nanmin(mu_theory)
+    rows = [_row(figure, f"{name}: multi-scale μ_s nearly constant in F*",
+                 f"max/min {spread:.2f} over F* = {t['load_star'][theory].min():g}–"
+                 f"{t['load_star'][theory].max():g}", bool(spread <= NEARLY_CONSTANT))]
+    loads, mu_fem = t["load_star"][fem], t["mu_s"][fem]
+    if figure == "26":
+        rows.append(_row("26", "2L: FEM μ_s decreases with load",
+                         f"F* {_series(loads)}: {_series(mu_fem)} ({_falls(mu_fem)})",
+                         bool(np.nanargmax(mu_fem) < np.nanargmin(mu_fem))))
+    gap = np.abs(mu_fem / np.interp(loads, t["load_star"][theory], mu_theory) - 1.0)
+    finite = np.isfinite(gap)
+    if finite.sum() >= 2:
+        first, last = gap[finite][0], gap[finite][-1]
+        rows.append(_row(figure, f"{name}: FEM approaches the model at high load",
+                         f"|FEM/multi-scale − 1| {first:.2f} at F* = {loads[finite][0]:g}, "
+                         f"{last:.2f} at {loads[finite][-1]:g}", bool(last < first)))
+    return rows
+
+
+def stiffness_order(t: dict, figure: str) -> list[tuple]:
+    """Figs. 21 and 29: the first-step slope of F_t/F_n rises with psi against u_x/omega_0
+    (Fig. 21) and falls with psi against u_x (Fig. 29)."""
+    normalised = figure == "21"
+    key = "ux_over_omega0" if normalised else "ux_m"
+    names = list(dict.fromkeys(t["surface"]))
+    slopes, psi = [], []
+    for name in names:
+        mine = t["surface"] == name
+        x, y = t[key][mine], t["Ft_over_Fn"][mine]
+        slopes.append(y[1] / x[1] if len(x) > 1 and x[1] > 0 else np.nan)
+        psi.append(t["psi"][mine][0])
+    trend = np.array(slopes)[np.argsort(psi)]
+    rises = np.sum(np.diff(trend[np.isfinite(trend)]) > 0)
+    steps = max(np.sum(np.isfinite(trend)) - 1, 0)
+    agrees = rises > steps / 2 if normalised else rises < steps / 2
+    return [_row(figure, ("higher ψ: larger initial tangential stiffness (normalised by ω_0)"
+                          if normalised else
+                          "lower ψ: larger initial tangential stiffness (not normalised)"),
+                 f"G1→G9 first-step slope{'' if normalised else ' per m'}: {_series(trend)}",
+                 bool(agrees))]
 
 
 def claims(directory: Path) -> list[tuple]:
     """Every checked statement as (figure, the paper's claim, ours, agrees)."""
-    directory = Path(directory)
-    tables = {}
-    for number in (15, 20, 21, 22, 23, 24, 25, 26, 27, 28, 29):
-        path = directory / f"fig{number}.csv"
-        if path.exists():
-            tables[number] = read_table(path)
-    rows = []
-    if 15 in tables:
-        area = tables[15]["area_ratio"]
-        growth = area[-1] / area[0] - 1.0 if len(area) > 1 and area[0] > 0 else np.nan
-        rows.append(_row("15", f"2L junction growth {100 * PAPER_JUNCTION_GROWTH:.2f} %",
-                         f"{100 * growth:+.1f} % (2L stand-in)",
-                         None if not np.isfinite(growth) else bool(growth > 0)))
-    if 20 in tables:
-        t = tables[20]
-        for load in np.unique(t["load_star"]):
-            here = t["load_star"] == load
-            areas = t["area_ratio"][here][np.argsort(t["psi"][here])]
-            falls = np.sum(np.diff(areas) < 0)
-            rows.append(_row("20", f"F* = {load:g}: A_r/A_n lower for larger ψ in most cases",
-                             f"G1→G9: {_series(areas)} ({_falls(areas)})",
-                             bool(falls > (len(areas) - 1) / 2)))
-        at = (t["load_star"] == 1.86) & (t["surface"] == "G1")
-        if at.any():
-            area = float(t["area_ratio"][at][0])
-            rows.append(_row("20", "G1 in complete contact at F* = 1.86", f"A_r/A_n = {area:.3f}",
-                             area >= COMPLETE_CONTACT))
-    for number, load in ((22, 0.155), (23, 0.62), (24, 0.93), (25, 1.86)):
-        if number not in tables:
-            rows.append(_row(str(number), "(figure not drawn)", "", None))
-            continue
-        t = tables[number]
-        rows += psi_trend(t, load)
-        fem, theory = t["mu_fem"], t["mu_multiscale"]
-        below = int(np.sum(theory < fem))
-        rows.append(_row(str(number), "multi-scale below the FEM" + (
-            " except the first point" if number == 24 else ""),
-            f"below at {below} of {int(np.sum(np.isfinite(fem)))} FEM points; FEM/multi-scale "
-            f"{_series(fem / theory)}", bool(below >= np.sum(np.isfinite(fem)) - 1)))
-    if 22 in tables:
-        t = tables[22]
-        g5, g6 = (np.flatnonzero(t["surface"] == name) for name in ("G5", "G6"))
-        if len(g5) and len(g6):
-            for label, key in (("FEM", "mu_fem"), ("multi-scale", "mu_multiscale")):
-                low, high = t[key][g5[0]], t[key][g6[0]]
-                rows.append(_row("22", f"μ_s(ψ = 16.59) > μ_s(ψ = 13.20) ({label})",
-                                 f"G6 {high:.4g} vs G5 {low:.4g}", bool(high > low)))
+    tables = {number: read_table(path) for number in (15, 20, 21, 22, 23, 24, 25, 26, 27, 28, 29)
+              if (path := Path(directory) / f"fig{number}.csv").exists()}
+    rows = junction_growth(tables[15]) if 15 in tables else []
+    rows += area_trends(tables[20]) if 20 in tables else []
+    for number in (22, 23, 24, 25):
+        rows += (psi_sweep(tables[number], str(number)) if number in tables
+                 else [_row(str(number), "(figure not drawn)", "", None)])
+    rows += psi_pair(tables[22]) if 22 in tables else []
     if 22 in tables and 25 in tables:
         gaps = [np.nanmedian(np.abs(tables[k]["mu_fem"] / tables[k]["mu_multiscale"] - 1.0))
                 for k in (22, 25)]
@@ -123,51 +173,9 @@ def claims(directory: Path) -> list[tuple]:
                          f"median |FEM/multi-scale − 1|: {gaps[0]:.2f} at 0.155, "
                          f"{gaps[1]:.2f} at 1.86", bool(gaps[1] < gaps[0])))
     for number, name in ((26, "2L"), (27, "8L"), (28, "G5")):
-        if number not in tables:
-            continue
-        t = tables[number]
-        fem = t["model"] == "fem"
-        theory = t["model"] == "multiscale"
-        mu_theory = t["mu_s"][theory]
-        spread = np.nanmax(mu_theory) / np.nanmin(mu_theory)
-        rows.append(_row(str(number), f"{name}: multi-scale μ_s nearly constant in F*",
-                         f"max/min {spread:.2f} over F* = {t['load_star'][theory].min():g}–"
-                         f"{t['load_star'][theory].max():g}", bool(spread <= NEARLY_CONSTANT)))
-        loads, mu_fem = t["load_star"][fem], t["mu_s"][fem]
-        if number == 26:
-            rows.append(_row("26", "2L: FEM μ_s decreases with load",
-                             f"F* {_series(loads)}: {_series(mu_fem)} ({_falls(mu_fem)})",
-                             bool(np.nanargmax(mu_fem) < np.nanargmin(mu_fem))))
-        at = np.interp(loads, t["load_star"][theory], mu_theory)
-        gap = np.abs(mu_fem / at - 1.0)
-        finite = np.isfinite(gap)
-        if finite.sum() >= 2:
-            first, last = gap[finite][0], gap[finite][-1]
-            rows.append(_row(str(number), f"{name}: FEM approaches the model at high load",
-                             f"|FEM/multi-scale − 1| {first:.2f} at F* = "
-                             f"{loads[finite][0]:g}, {last:.2f} at {loads[finite][-1]:g}",
-                             bool(last < first)))
-    for number, key, larger in ((21, "ux_over_omega0", "higher"), (29, "ux_m", "lower")):
-        if number not in tables:
-            continue
-        t = tables[number]
-        names = list(dict.fromkeys(t["surface"]))
-        stiffness = []
-        for name in names:
-            mine = t["surface"] == name
-            x, y = t[key][mine], t["Ft_over_Fn"][mine]
-            stiffness.append(y[1] / x[1] if len(x) > 1 and x[1] > 0 else np.nan)
-        stiffness = np.array(stiffness)
-        psi = np.array([t["psi"][t["surface"] == name][0] for name in names])
-        order = np.argsort(psi)
-        trend = stiffness[order]
-        rises = np.sum(np.diff(trend[np.isfinite(trend)]) > 0)
-        steps = max(np.sum(np.isfinite(trend)) - 1, 0)
-        agrees = rises > steps / 2 if larger == "higher" else rises < steps / 2
-        unit = "" if number == 21 else " per m"
-        rows.append(_row(str(number), f"{larger} ψ: larger initial tangential stiffness"
-                         + (" (normalised by ω_0)" if number == 21 else " (not normalised)"),
-                         f"G1→G9 first-step slope{unit}: {_series(trend)}", bool(agrees)))
+        rows += load_sweep(tables[number], str(number), name) if number in tables else []
+    for number in (21, 29):
+        rows += stiffness_order(tables[number], str(number)) if number in tables else []
     return rows
 
 

@@ -52,8 +52,8 @@ def fem_mu_at_least(run) -> float:
 def fem_contact_pressure(run) -> float:
     """Mean contact pressure at sliding inception over the yield strength, F_n / (A_s S_y) [-]
     (NaN without inception). Fully plastic contact of a blunt asperity carries about 3 S_y
-    (Tabor's hardness), so a value far above that marks contact patches the mesh does not
-    resolve (area too small, mu_s too low)."""
+    (Tabor's hardness); hardening allows more, so a value far above it is a hint, not proof,
+    that the mesh does not resolve the patches (docs/verification.md)."""
     summary = run.summary
     if summary.get("mu_s") is None or not summary.get("area_ratio_sliding"):
         return float("nan")

@@ -68,3 +68,15 @@ def test_load_sweep_statements(tmp_path):
     assert found["2L: FEM approaches the model at high load"] == "yes"
     path = write_claims(tmp_path)
     assert path.read_text().startswith("| Fig. | the paper | ours | agrees |")
+
+
+def test_stiffness_orderings(tmp_path):
+    """Fig. 21 asks the normalised first-step slope to rise with psi, Fig. 29 the raw one to
+    fall."""
+    rising = {"surface": np.repeat(NAMES[:3], 2), "psi": np.repeat(PSI[:3], 2),
+              "ux_over_omega0": np.tile([0.0, 1.0], 3), "ux_m": np.tile([0.0, 1.0], 3),
+              "Ft_over_Fn": np.array([0.0, 0.1, 0.0, 0.2, 0.0, 0.3])}
+    write_table(tmp_path / "fig21.csv", rising)
+    write_table(tmp_path / "fig29.csv", rising)
+    assert list(verdicts(tmp_path, "21").values()) == ["yes"]
+    assert list(verdicts(tmp_path, "29").values()) == ["no"]
