@@ -1,0 +1,56 @@
+"""The same run on 1, 2 and 4 MPI ranks gives the same mu_s (each launched here with mpirun)."""
+
+import json
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+pytestmark = pytest.mark.fem
+dolfinx = pytest.importorskip("dolfinx")
+
+ROOT = Path(__file__).resolve().parent.parent
+
+# A 12 x 12 i.i.d. surface (rms 0.1 um at 1 um spacing) at F* = 0.3, the default solver options
+# (direct below their size limit).
+RUN = """
+import json
+import numpy as np
+from mpi4py import MPI
+from roughfriction.case import FemCase, Loading
+from roughfriction.geometry.surface import Surface
+from roughfriction.solver.run import run
+
+heights = np.random.default_rng(11).normal(0.0, 0.1e-6, (12, 12))
+result = run(FemCase(Surface(heights, 1e-6, "ranks"), Loading(0.3)), MPI.COMM_WORLD,
+             progress=lambda record: None).result
+if MPI.COMM_WORLD.rank == 0:
+    print(json.dumps([result.converged, result.mu_s, result.records[-1].contact_nodes]))
+"""
+
+
+def run_on(ranks: int) -> list:
+    """[converged, mu_s, contact nodes] of the case on ``ranks`` ranks."""
+    launcher = ("OMPI_", "PMIX_", "PMI_", "OPAL_", "HYDRA_")
+    env = {key: value for key, value in os.environ.items() if not key.startswith(launcher)}
+    env.update(OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
+               OMP_NUM_THREADS="1", OPENBLAS_NUM_THREADS="1")
+    command = ["mpirun", "-n", str(ranks), "--oversubscribe", sys.executable, "-c", RUN]
+    done = subprocess.run(command, cwd=ROOT, env=env, capture_output=True, text=True,
+                          timeout=600)
+    assert done.returncode == 0, done.stderr[-2000:]
+    return json.loads(done.stdout.strip().splitlines()[-1])
+
+
+@pytest.mark.skipif(shutil.which("mpirun") is None, reason="needs mpirun")
+def test_one_two_and_four_ranks_give_the_same_mu_s():
+    results = {ranks: run_on(ranks) for ranks in (1, 2, 4)}
+    assert all(converged for converged, _, _ in results.values()), results
+    mu = np.array([mu_s for _, mu_s, _ in results.values()])
+    assert mu[0] > 0.0
+    np.testing.assert_allclose(mu, mu[0], rtol=1e-6)
+    assert len({nodes for _, _, nodes in results.values()}) == 1, results
