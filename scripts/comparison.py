@@ -22,7 +22,14 @@ from roughfriction.scripts.fem_views import (
     fem_psi,
 )
 from roughfriction.scripts.figures import new_axes
-from roughfriction.studies.paper import FEM_LOAD_SWEEP, GAUSSIAN_SURFACES, LOAD_SWEEP, fem_case
+from roughfriction.studies.paper import (
+    FEM_LOAD_SWEEP,
+    GAUSSIAN_SURFACES,
+    LOAD_SWEEP,
+    WINDOW_SCATTER_LOADS,
+    fem_case,
+    window_cases,
+)
 
 STAND_INS = ("2L", "8L", "63M")
 #: Largest relative difference of the meshed surface's psi from the surface's own [-].
@@ -57,8 +64,28 @@ def surface_title(name: str) -> str:
 
 
 def psi_sweep_cases(load: float, n: int) -> list:
-    """Sliding runs of G1–G9 at F* = ``load``."""
-    return [fem_case(name, load, n) for name in GAUSSIAN_SURFACES]
+    """Sliding runs of G1–G9 at F* = ``load``, then, at the :data:`WINDOW_SCATTER_LOADS`, those
+    of other windows of each (``studies.paper.window_cases``), surface by surface."""
+    cases = [fem_case(name, load, n) for name in GAUSSIAN_SURFACES]
+    if load in WINDOW_SCATTER_LOADS:
+        cases += [case for name in GAUSSIAN_SURFACES for case in window_cases(name, load, n)]
+    return cases
+
+
+def draw_window_scatter(ax, psi, runs) -> dict:
+    """mu_s of the windows on each surface's diagonal (grey bars at the surface's psi; ``runs``
+    surface by surface) and their range per surface, as CSV columns (NaN without a converged
+    window) [-]."""
+    per_surface = len(runs) // len(psi)
+    mu = np.array([fem_mu(run) for run in runs], dtype=float).reshape(len(psi), per_surface)
+    if per_surface:
+        ax.plot(np.repeat(psi, per_surface), mu.ravel(), "_", color="0.45", ms=9, mew=1.5,
+                label=f"FEM, {per_surface} windows on the diagonal")
+    converged = np.isfinite(mu)
+    low, high = ([reduce(row[ok]) if ok.any() else np.nan
+                  for row, ok in zip(mu, converged, strict=True)] for reduce in (np.min, np.max))
+    return {"fem_windows": converged.sum(axis=1), "mu_fem_windows_min": np.array(low),
+            "mu_fem_windows_max": np.array(high)}
 
 
 def psi_sweep(load: float, runs):
@@ -67,6 +94,7 @@ def psi_sweep(load: float, runs):
     theory = [evaluate_theory(builtin_surface(name), load, material) for name in GAUSSIAN_SURFACES]
     psi = np.array([result.psi for result in theory])
     fig, ax = new_axes()
+    runs, others = runs[:len(psi)], runs[len(psi):]
     mu_fem, at_least = draw_fem(ax, psi, runs)
     columns = {
         "surface": np.array(GAUSSIAN_SURFACES),
@@ -81,7 +109,7 @@ def psi_sweep(load: float, runs):
         "cke_valid": np.array([result.cke_valid for result in theory]),
         "mu_let": np.array([result.mu_let for result in theory]),
         "let_valid": np.array([result.let_valid for result in theory]),
-    }
+    } | draw_window_scatter(ax, psi, others)
     ax.plot(psi, columns["mu_multiscale"], "s-", color="C0", ms=4, label="multi-scale")
     draw_statistical(ax, psi, columns["mu_cke"], columns["cke_valid"], "CKE (Eq. 8)",
                      {"color": "C1", "marker": "^", "ms": 4})

@@ -32,6 +32,11 @@ PATCH_LOADS = (0.06, 0.12, 0.155, 0.5, 0.93, 1.86)
 AREA_LOADS = (0.06, *PSI_SWEEP_LOADS)
 #: Load F* of Figs. 21 and 29 (F_t/F_n during the tangential loading of G1–G9).
 CURVE_LOAD = 0.155
+#: Loads F* whose mu-vs-psi figure also runs other windows of each G surface, to show how much
+#: mu_s scatters between windows of one i.i.d. surface (at F* = 0.155 a run takes seconds).
+WINDOW_SCATTER_LOADS = (0.155,)
+#: Most windows per surface in that scatter [-].
+SCATTER_WINDOWS = 4
 #: Surface and load F* of Fig. 15 (junction growth; Fig. 17 shows the theory at this load).
 JUNCTION_SURFACE, JUNCTION_LOAD = "2L", 0.5
 
@@ -88,6 +93,27 @@ def surface_window(surface, n: int, window: int | None = None):
         raise InputError(f"{surface.name} has {len(candidates)} windows of {n} x {n} points, "
                          f"not {window + 1}")
     return candidates[window]
+
+
+def scatter_windows(name: str, n: int) -> list[int]:
+    """Indices (0-based, row by row) of up to :data:`SCATTER_WINDOWS` n x n windows of
+    surface ``name`` on its grid's diagonal (no two share a row or column of points); none if
+    the FEM meshes the whole surface (:func:`fem_surface`)."""
+    from roughfriction.geometry.generate import builtin_surface
+
+    per_side = builtin_surface(name).n // n
+    if name not in GAUSSIAN_SURFACES or per_side < 2:
+        return []
+    rows = np.unique(np.round(np.linspace(0, per_side - 1, min(SCATTER_WINDOWS, per_side))))
+    return [int(row) * (per_side + 1) for row in rows]
+
+
+def window_cases(name: str, load: float, n: int) -> list:
+    """Sliding FEM cases of the :func:`scatter_windows` of ``name`` at F* = ``load``."""
+    from roughfriction.case import FemCase, Loading
+
+    return [FemCase(fem_surface(name, n, window), Loading(load))
+            for window in scatter_windows(name, n)]
 
 
 def fem_case(name: str, load: float, n: int, normal_only: bool = False):
