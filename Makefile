@@ -97,11 +97,13 @@ gallery: figures
 bench-multiscale: setup
 	@$(VENV)/bin/roughfriction bench multiscale
 
-# G5 at F* = 0.155 with N = $(BENCH_N) on $(NP) ranks -> results/bench/fem.csv (a row per N and
-# rank count: `make bench-fem NP=1 BENCH_N="32 64"` adds serial rows)
+# The headline cases $(BENCH_CASES) with N = $(BENCH_N) on $(NP) ranks -> results/bench/fem.csv
+# (a row per case, N and rank count; `make bench-fem NP=1 BENCH_N="32 64" BENCH_CASES=G5:0.155`
+# adds serial rows). All of them at N = 128 take hours on 2 cores.
 BENCH_N ?= 32 64 128
+BENCH_CASES ?= G5:0.155 G5:0.93 2L:0.5 G1:1.86
 bench-fem: setup
-	@$(VENV)/bin/roughfriction bench fem --n $(BENCH_N) --ranks $(NP)
+	@$(VENV)/bin/roughfriction bench fem --n $(BENCH_N) --ranks $(NP) --case $(BENCH_CASES)
 	@mkdir -p docs/bench && cp results/bench/fem.csv docs/bench/
 
 # Run time against error (studies/convergence.py): G5 at F* = 0.155 and 0.93, 2L at 0.5 and the

@@ -78,6 +78,7 @@ def bench_multiscale(repeats: int = 7) -> dict:
 def add_bench_commands(bench) -> None:
     """``roughfriction bench multiscale|fem|error|stress`` under the ``bench`` sub-parser."""
     from roughfriction.scripts.bench_fem import DEFAULT_SIZES as FEM_SIZES
+    from roughfriction.scripts.bench_fem import HEADLINE_CASES as FEM_CASES
     from roughfriction.studies import convergence
     from roughfriction.studies.paper import DEFAULT_FEM_N
 
@@ -91,6 +92,10 @@ def add_bench_commands(bench) -> None:
     fem.add_argument("--n", type=int, nargs="+", default=list(FEM_SIZES),
                      help=f"surface cells per side (default {' '.join(map(str, FEM_SIZES))})")
     fem.add_argument("--ranks", type=int, default=2, help="MPI ranks (default 2)")
+    fem.add_argument("--case", nargs="+", metavar="SURFACE:LOAD",
+                     default=[f"{surface}:{load:g}" for surface, load in FEM_CASES],
+                     help="surfaces and loads F* (default the headline cases: "
+                          f"{' '.join(f'{surface}:{load:g}' for surface, load in FEM_CASES)})")
     fem.set_defaults(run=cmd_bench_fem)
 
     error = kinds.add_parser("error", help="run time against error (run under mpirun) -> "
@@ -128,9 +133,10 @@ def add_bench_commands(bench) -> None:
 def cmd_bench_fem(args) -> dict:
     """FEM benchmark rows (:mod:`roughfriction.scripts.bench_fem`)."""
     from roughfriction.scripts.bench_fem import BENCH_DIR as FEM_DIR
-    from roughfriction.scripts.bench_fem import benchmark_sizes
+    from roughfriction.scripts.bench_fem import benchmark_sizes, parse_case
 
-    return {"runs": benchmark_sizes(args.n, args.ranks), "csv": str(FEM_DIR / "fem.csv")}
+    cases = [parse_case(text) for text in args.case]
+    return {"runs": benchmark_sizes(args.n, args.ranks, cases), "csv": str(FEM_DIR / "fem.csv")}
 
 
 def cmd_bench_error(args) -> dict:

@@ -3,15 +3,42 @@
 from roughfriction.scripts import bench_fem as benchmark
 
 
-def test_rows_of_other_sizes_and_rank_counts_are_kept(tmp_path, monkeypatch):
+def fake_run(surface, load, n, ranks):
+    return {"surface": surface, "load_star": load, "n": n, "ranks": ranks,
+            "wall_s": 10.0 * n / ranks, "converged": True}
+
+
+def test_rows_of_other_cases_sizes_and_rank_counts_are_kept(tmp_path, monkeypatch):
     monkeypatch.setattr(benchmark, "BENCH_DIR", tmp_path)
-    monkeypatch.setattr(benchmark, "run_size", lambda n, ranks: {
-        "n": n, "ranks": ranks, "wall_s": 10.0 * n / ranks, "converged": True})
-    benchmark.benchmark_sizes([32, 64], ranks=2)
-    benchmark.benchmark_sizes([64], ranks=1)
+    monkeypatch.setattr(benchmark, "run_size", fake_run)
+    g5 = [("G5", 0.155)]
+    benchmark.benchmark_sizes([32, 64], ranks=2, cases=g5)
+    benchmark.benchmark_sizes([64], ranks=1, cases=g5)
     rows = benchmark.read_rows(tmp_path / "fem.csv")
-    assert sorted(rows) == [(32, 2), (64, 1), (64, 2)]
-    assert float(rows[64, 1]["wall_s"]) == 640.0
-    assert float(rows[64, 2]["wall_s"]) == 320.0
-    benchmark.benchmark_sizes([64], ranks=2)  # a rerun replaces its own row only
+    assert sorted(rows) == [("G5", 0.155, 32, 2), ("G5", 0.155, 64, 1), ("G5", 0.155, 64, 2)]
+    assert float(rows["G5", 0.155, 64, 1]["wall_s"]) == 640.0
+    assert float(rows["G5", 0.155, 64, 2]["wall_s"]) == 320.0
+    benchmark.benchmark_sizes([64], ranks=2, cases=g5)  # a rerun replaces its own row only
     assert len(benchmark.read_rows(tmp_path / "fem.csv")) == 3
+    benchmark.benchmark_sizes([32], ranks=2, cases=[("G1", 1.86)])
+    rows = benchmark.read_rows(tmp_path / "fem.csv")
+    assert len(rows) == 4 and rows["G1", 1.86, 32, 2]["surface"] == "G1"
+
+
+def test_rows_written_before_the_case_columns_are_g5_at_the_low_load(tmp_path, monkeypatch):
+    monkeypatch.setattr(benchmark, "BENCH_DIR", tmp_path)
+    monkeypatch.setattr(benchmark, "run_size", fake_run)
+    (tmp_path / "fem.csv").write_text("n,ranks,wall_s\n128,2,541.0\n")
+    benchmark.benchmark_sizes([32], ranks=2, cases=[("2L", 0.5)])
+    rows = benchmark.read_rows(tmp_path / "fem.csv")
+    assert sorted(rows) == [("2L", 0.5, 32, 2), ("G5", 0.155, 128, 2)]
+    assert float(rows["G5", 0.155, 128, 2]["wall_s"]) == 541.0
+
+
+def test_a_case_is_surface_colon_load():
+    import pytest
+    from roughfriction.errors import InputError
+
+    assert benchmark.parse_case("G1:1.86") == ("G1", 1.86)
+    with pytest.raises(InputError, match="SURFACE:LOAD"):
+        benchmark.parse_case("G1")
