@@ -3,7 +3,8 @@
 ``studies.paper.fem_surface`` (for G1–G9 a window at their own spacing), whose psi is in the
 ``psi_fem`` column and, where it is more than 3 % off the surface's, on the figure; the
 columns ``fem_pressure_over_Sy`` and ``fem_nodes_per_patch`` say how well the mesh resolves
-the contact patches (``scripts.fem_views``). A
+the contact patches (``scripts.fem_views``); at low load ``fem_windows``,
+``mu_fem_windows_min`` and ``mu_fem_windows_max`` give the scatter of other windows. A
 statistical value outside its model's published range (``multiscale.statistical``) is drawn
 hollow on a dotted line and labelled so."""
 
@@ -65,7 +66,8 @@ def surface_title(name: str) -> str:
 
 def psi_sweep_cases(load: float, n: int) -> list:
     """Sliding runs of G1–G9 at F* = ``load``, then, at the :data:`WINDOW_SCATTER_LOADS`, those
-    of other windows of each (``studies.paper.window_cases``), surface by surface."""
+    of the windows on each surface's diagonal (``studies.paper.window_cases``), surface by
+    surface."""
     cases = [fem_case(name, load, n) for name in GAUSSIAN_SURFACES]
     if load in WINDOW_SCATTER_LOADS:
         cases += [case for name in GAUSSIAN_SURFACES for case in window_cases(name, load, n)]
