@@ -8,10 +8,10 @@ that says so instead of a verdict.
 
 from __future__ import annotations
 
-import csv
 from pathlib import Path
 
 import numpy as np
+from roughfriction.scripts.figures import read_table
 
 #: Junction growth of the paper's 2L at F* = 0.5 (Fig. 15) [-].
 PAPER_JUNCTION_GROWTH = 0.1875
@@ -19,20 +19,6 @@ PAPER_JUNCTION_GROWTH = 0.1875
 COMPLETE_CONTACT = 0.99
 #: Largest max/min ratio of mu_s over the loads for "nearly constant" [-].
 NEARLY_CONSTANT = 1.25
-
-
-def read_table(path: Path) -> dict[str, np.ndarray]:
-    """A figure CSV as columns (numbers as float arrays, text as str arrays)."""
-    with open(path, newline="") as file:
-        rows = list(csv.DictReader(file))
-    columns = {}
-    for key in rows[0] if rows else []:
-        values = [row[key] for row in rows]
-        try:
-            columns[key] = np.array([float(v) for v in values])
-        except ValueError:
-            columns[key] = np.array(values)
-    return columns
 
 
 def _falls(values: np.ndarray) -> str:

@@ -11,6 +11,7 @@ each atomically (a killed run never leaves a half-written file under the final n
 
 from __future__ import annotations
 
+import csv
 import importlib
 from pathlib import Path
 
@@ -53,6 +54,20 @@ def write_table(path: Path, columns: dict[str, np.ndarray]) -> None:
     lines += [",".join(f"{v:.10g}" if isinstance(v, float | np.floating) else str(v) for v in r)
               for r in rows]
     atomic_write(path, lambda tmp: Path(tmp).write_text("\n".join(lines) + "\n"))
+
+
+def read_table(path: Path) -> dict[str, np.ndarray]:
+    """A CSV of :func:`write_table` as columns (numbers as float arrays, text as str arrays)."""
+    with open(path, newline="") as file:
+        rows = list(csv.DictReader(file))
+    columns = {}
+    for key in rows[0] if rows else []:
+        values = [row[key] for row in rows]
+        try:
+            columns[key] = np.array([float(v) for v in values])
+        except ValueError:
+            columns[key] = np.array(values)
+    return columns
 
 
 def fem_runs(module, n: int | None = None, runs_directory=None) -> list | None:

@@ -2,7 +2,6 @@
 figures are drawn here; FEM figures declare their runs (checked without the FEM), draw from
 given runs, and one is built end to end on an 8 x 8 grid through the run cache."""
 
-import csv
 import importlib
 import sys
 import time
@@ -18,26 +17,12 @@ from roughfriction.scripts.figures import (
     FIGURES,
     THEORY_FIGURES,
     make_figure,
+    read_table,
     write_table,
 )
 from roughfriction.studies.paper import FEM_LOAD_SWEEP
 
 ROOT = Path(__file__).resolve().parent.parent
-
-
-def read_columns(path):
-    """CSV columns as float arrays (str arrays where a column is not numeric)."""
-    with open(path) as f:
-        rows = list(csv.DictReader(f))
-
-    def column(key):
-        values = [r[key] for r in rows]
-        try:
-            return np.array([float(v) for v in values])
-        except ValueError:
-            return np.array(values)
-
-    return {k: column(k) for k in rows[0]}
 
 
 @pytest.fixture(scope="module")
@@ -52,18 +37,18 @@ def figure_dir(tmp_path_factory):
 def test_figure_writes_png_and_csv(name, figure_dir):
     png = figure_dir / f"{name}.png"
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
-    assert len(read_columns(figure_dir / f"{name}.csv")) >= 2
+    assert len(read_table(figure_dir / f"{name}.csv")) >= 2
     assert not list(figure_dir.glob(".*"))  # no temporary files left behind
 
 
 def test_fig17_sliding_area_not_below_normal(figure_dir):
-    data = read_columns(figure_dir / "fig17.csv")
+    data = read_table(figure_dir / "fig17.csv")
     assert np.all(data["area_ratio_sliding"] >= data["area_ratio_normal"])
     assert data["area_ratio_sliding"][-1] > data["area_ratio_normal"][-1]  # junction growth
 
 
 def test_fig18_shear_stress_rises_to_tau_c(figure_dir):
-    data = read_columns(figure_dir / "fig18.csv")
+    data = read_table(figure_dir / "fig18.csv")
     assert np.all(np.diff(data["shear_stress_Pa"]) >= 0)  # assumption f'
     on_sliding_area = data["shear_on_sliding_area_Pa"]
     tau_c = Material().tau_c
@@ -233,7 +218,7 @@ def test_fig14_with_fem_points_end_to_end_and_cached(tmp_path, monkeypatch):
     make_figure("fig14", tmp_path, n=8, runs_directory=runs)
     assert (tmp_path / "fig14.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     assert len(list(runs.glob("*.h5"))) == 5
-    data = read_columns(tmp_path / "fig14.csv")
+    data = read_table(tmp_path / "fig14.csv")
     finest = {load: data["area_ratio"][data["load_star"] == load][-1]
               for load in np.unique(data["load_star"])}
     loads = sorted(finest)
