@@ -4,7 +4,7 @@
 ``psi_fem`` column and, where it is more than 3 % off the surface's, on the figure; the
 columns ``fem_pressure_over_Sy`` and ``fem_nodes_per_patch`` say how well the mesh resolves
 the contact patches (``scripts.fem_views``); at low load ``fem_windows``,
-``mu_fem_windows_min`` and ``mu_fem_windows_max`` give the scatter of other windows. A
+``mu_fem_windows_min`` and ``mu_fem_windows_max`` give the scatter of the windows. A
 statistical value outside its model's published range (``multiscale.statistical``) is drawn
 hollow on a dotted line and labelled so."""
 
@@ -76,13 +76,12 @@ def psi_sweep_cases(load: float, n: int) -> list:
 
 def draw_window_scatter(ax, psi, runs) -> dict:
     """mu_s of the windows on each surface's diagonal (grey bars at the surface's psi; ``runs``
-    surface by surface) and their range per surface, as CSV columns (NaN without a converged
-    window) [-]."""
+    surface by surface, at least one each) and their range per surface, as CSV columns (NaN
+    without a converged window) [-]."""
     per_surface = len(runs) // len(psi)
     mu = np.array([fem_mu(run) for run in runs], dtype=float).reshape(len(psi), per_surface)
-    if per_surface:
-        ax.plot(np.repeat(psi, per_surface), mu.ravel(), "_", color="0.45", ms=9, mew=1.5,
-                label=f"FEM, {per_surface} windows on the diagonal")
+    ax.plot(np.repeat(psi, per_surface), mu.ravel(), "_", color="0.45", ms=9, mew=1.5,
+            label=f"FEM, {per_surface} windows on the diagonal")
     converged = np.isfinite(mu)
     low, high = ([reduce(row[ok]) if ok.any() else np.nan
                   for row, ok in zip(mu, converged, strict=True)] for reduce in (np.min, np.max))
@@ -111,7 +110,9 @@ def psi_sweep(load: float, runs):
         "cke_valid": np.array([result.cke_valid for result in theory]),
         "mu_let": np.array([result.mu_let for result in theory]),
         "let_valid": np.array([result.let_valid for result in theory]),
-    } | draw_window_scatter(ax, psi, others)
+    }
+    if others:
+        columns |= draw_window_scatter(ax, psi, others)
     ax.plot(psi, columns["mu_multiscale"], "s-", color="C0", ms=4, label="multi-scale")
     draw_statistical(ax, psi, columns["mu_cke"], columns["cke_valid"], "CKE (Eq. 8)",
                      {"color": "C1", "marker": "^", "ms": 4})

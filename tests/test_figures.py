@@ -165,6 +165,8 @@ def test_mu_vs_psi_at_low_load_shows_the_scatter_of_windows():
     assert columns["mu_fem_windows_min"][0] == 0.4 and columns["mu_fem_windows_max"][0] == 0.6
     assert list(columns["mu_fem"]) == [0.5] * 9
     assert "FEM, 4 windows on the diagonal" in fig.axes[0].get_legend_handles_labels()[1]
+    _, columns = fig23.make(fake_runs(fig23.fem_cases(32), [0.3] * 9))
+    assert "fem_windows" not in columns
 
 
 def test_mu_vs_load_columns():
