@@ -119,7 +119,8 @@ class SolverOptions:
     residual_tolerance : float
         Newton: ||R|| and |sum p a - F_n| below this times F_n [-].
     increment_tolerance : float
-        Newton: max |du| below this times the grid spacing [-].
+        Newton: max |du| below this times the grid spacing [-] (the penetration tolerance:
+        the displacement is not known better than that).
     max_iterations : int
         Newton iterations per active-set round before a step is cut [-] (up to
         ``solver.equilibrium.MAX_ROUNDS`` rounds while the contact set settles).
@@ -145,7 +146,7 @@ class SolverOptions:
     linear_solver: str = "auto"
     direct_limit: int = 1_000
     residual_tolerance: float = 1e-6
-    increment_tolerance: float = 1e-5
+    increment_tolerance: float = 1e-4
     max_iterations: int = 15
     normal_increments: int = 5
     first_slide: float = 0.02

@@ -13,8 +13,8 @@ pressure, see :mod:`solver.contact`).
 A Newton solve is converged when ||R|| <= tol_R F_n, |r| <= tol_R F_n and the last
 max |du| <= tol_u h; a backtracking line search on ||R||^2 + r^2 damps contact overshoot, and a
 solve whose residual stops halving is abandoned (the step is then cut). A load step is converged
-when, after Uzawa updates of the contact multipliers, no contact point penetrates deeper than
-tol_g h.
+when, after Uzawa updates of the contact multipliers (Newton stops at looser tolerances between
+updates), no contact point penetrates deeper than tol_g h.
 """
 
 from __future__ import annotations
@@ -47,6 +47,12 @@ FREEZE_AFTER = 3
 #: ``max_iterations``, and a new round is started only while fewer nodes change their contact
 #: state than at the last one (no cycling).
 MAX_ROUNDS = 5
+#: Newton solves between Uzawa updates stop at ||R||, |r| <= this times F_n and max |du| <=
+#: UZAWA_INCREMENT_TOLERANCE h (or the solver's tolerances if looser); once the penetration is
+#: within its tolerance, one more solve with the same multipliers meets the solver's
+#: tolerances (multipliers need an equilibrium only as good as their own error) [-].
+UZAWA_RESIDUAL_TOLERANCE = 1e-4
+UZAWA_INCREMENT_TOLERANCE = 1e-2
 #: Krylov tolerance = FORCING_FACTOR x (||R|| + |r|) / F_n, clipped to [FORCING_MIN, FORCING_MAX].
 FORCING_FACTOR = 0.1
 FORCING_MIN = 1e-10
@@ -238,33 +244,48 @@ class Equilibrium:
         friction : bool
             Frictional contact (tangential phase) or frictionless (preload).
         """
-        tolerance = self.options.penetration_tolerance * self.spacing
-        iterations = krylov = 0
-        for augmentation in range(self.options.max_augmentations + 1):
+        options = self.options
+        tolerance = options.penetration_tolerance * self.spacing
+        tight = (options.residual_tolerance, options.increment_tolerance)
+        tolerances = (max(tight[0], UZAWA_RESIDUAL_TOLERANCE),
+                      max(tight[1], UZAWA_INCREMENT_TOLERANCE))
+        iterations = krylov = updates = solves = 0
+        while True:
             # the tangential predictor belongs to the first solve of a step only
             report = self._newton(normal_force, flat_slide, friction,
-                                  predictor=friction and augmentation == 0)
+                                  friction and solves == 0, *tolerances)
+            solves += 1
             iterations += report.iterations
             krylov += report.krylov_iterations
             penetration = self.flat.penetration(report.contact)
-            if not report.converged or penetration <= tolerance:
+            if not report.converged:
+                break
+            if penetration <= tolerance:
+                if tolerances == tight:
+                    break
+                tolerances = tight  # the multipliers are good: solve to the tolerances
+                continue
+            if updates == options.max_augmentations:
                 break
             self.flat.augment(report.contact)
+            updates += 1
         reason = report.reason
         if report.converged and penetration > tolerance:
             reason = (f"penetration {penetration / self.spacing:.2e} h > tolerance "
-                      f"{self.options.penetration_tolerance:.0e} h after "
-                      f"{self.options.max_augmentations} multiplier updates")
+                      f"{options.penetration_tolerance:.0e} h after "
+                      f"{options.max_augmentations} multiplier updates")
         return NewtonReport(not reason, iterations, krylov, report.residual, report.contact,
                             reason)
 
     def _newton(self, normal_force: float, flat_slide: float, friction: bool,
-                predictor: bool) -> NewtonReport:
+                predictor: bool, residual_tolerance: float, increment_tolerance: float
+                ) -> NewtonReport:
         """Newton iterations from the current iterate with fixed multipliers (``predictor``:
-        start with the tangential predictor of :meth:`RigidFlat.respond`); arguments as in
-        :meth:`solve`."""
-        tolerance_force = self.options.residual_tolerance * normal_force
-        tolerance_increment = self.options.increment_tolerance * self.spacing
+        start with the tangential predictor of :meth:`RigidFlat.respond`) until ||R||, |r| <=
+        ``residual_tolerance`` F_n and max |du| <= ``increment_tolerance`` h; other arguments as
+        in :meth:`solve`."""
+        tolerance_force = residual_tolerance * normal_force
+        tolerance_increment = increment_tolerance * self.spacing
         self._active = None
         state = self._evaluate(normal_force, flat_slide, friction, predictor)
         increment, krylov = 0.0, 0
