@@ -58,8 +58,9 @@ def test_perimeter_correction_brings_a_pixelated_disc_to_its_area():
 def test_fem_contact_area_converges_to_the_bem_limit():
     """Elastic frictionless normal contact of a self-affine 16 x 16 surface (H = 0.7, shortest
     wavelength 4 h, RMS slope 0.05) at F* = 0.3, on the surface's grid and a 2x finer mesh of
-    the same bilinear surface. Measured: -45 % and -23 % from the BEM limit (the trilinear solid
-    is too stiff at the grid scale), first-order extrapolation -1.8 %."""
+    the same bilinear surface. Measured (docs/verification.md): about -47 % and -23 % from the BEM
+    limit (the trilinear solid is too stiff at the grid scale), first-order extrapolation within
+    a few per cent."""
     spacing, material, load = 1e-6, Material(), 0.3
     heights = self_affine_surface(1.0, 0.7, n=16, spacing=spacing, seed=1,
                                   short_cutoff=4 * spacing).heights

@@ -116,7 +116,7 @@ def fem_complete_contact_pressure(fem_run, amplitude) -> float:
 
 
 #: Cells per wavelength. The mode decays within lambda / (2 sqrt(2) pi) ~ 2 h below the surface,
-#: so p* converges at second order in h: -14.7 %, -3.8 %, -2.4 %, -0.8 % at 8, 16, 20, 32 cells.
+#: so p* converges at second order in h (docs/verification.md: -3.5 % at 16, -2.0 % at 20 cells).
 N_SINE = 20
 
 
