@@ -4,7 +4,10 @@
 ``psi_fem`` column and, where it is more than 3 % off the surface's, on the figure; the
 columns ``fem_pressure_over_Sy`` and ``fem_nodes_per_patch`` say how well the mesh resolves
 the contact patches (``scripts.fem_views``); at low load ``fem_windows``,
-``mu_fem_windows_min`` and ``mu_fem_windows_max`` give the scatter of the windows. A
+``mu_fem_windows_min`` and ``mu_fem_windows_max`` give the scatter of the windows (on the
+figure's mesh). At the ``ERROR_BAR_LOADS`` a point is the mu_s on a 2x finer mesh of the same
+surface, with ``mu_fem_error`` (its two-mesh Richardson error, the bar), ``mu_fem_coarse`` and
+``fem_refinement`` (the mesh plotted: 1 or 2). A
 statistical value outside its model's published range (``multiscale.statistical``) is drawn
 hollow on a dotted line and labelled so."""
 
@@ -24,13 +27,16 @@ from roughfriction.scripts.fem_views import (
 )
 from roughfriction.scripts.figures import new_axes
 from roughfriction.studies.paper import (
+    ERROR_BAR_LOADS,
     FEM_LOAD_SWEEP,
     GAUSSIAN_SURFACES,
     LOAD_SWEEP,
     WINDOW_SCATTER_LOADS,
+    error_bar_case,
     fem_case,
     window_cases,
 )
+from roughfriction.studies.refinement import richardson
 
 STAND_INS = ("2L", "8L", "63M")
 #: Largest relative difference of the meshed surface's psi from the surface's own [-].
@@ -48,13 +54,37 @@ def draw_statistical(ax, x, mu, valid, label: str, style: dict) -> None:
                 **style)
 
 
-def draw_fem(ax, x, runs) -> tuple[np.ndarray, np.ndarray]:
-    """The FEM's mu_s at ``x`` (filled circles) and, for runs that failed before sliding
-    inception, the F_t/F_n they reached (hollow triangles: mu_s is at least that); return
-    both [-] (NaN where absent)."""
+def error_bars(coarse, fine) -> tuple[list, dict]:
+    """The run to plot at each FEM point and its error bar (Richardson at first order,
+    ``studies.refinement``), from the figure's mesh (``coarse``) and the 2x finer one
+    (``fine``, None where not run): the fine run where it reached sliding inception, with
+    error |mu_fine - mu_coarse| if the coarse run did too; else the coarse run, no bar.
+    Returns the runs and the columns ``mu_fem_coarse``, ``mu_fem_error`` [-] (NaN: none) and
+    ``fem_refinement`` (1 or 2: the mesh plotted)."""
+    plotted, mu_coarse, error, refinement = [], [], [], []
+    for one, finer in zip(coarse, fine, strict=True):
+        mu_one = fem_mu(one)
+        mu_finer = np.nan if finer is None else fem_mu(finer)
+        use_finer = bool(np.isfinite(mu_finer))
+        plotted.append(finer if use_finer else one)
+        refinement.append(2 if use_finer else 1)
+        mu_coarse.append(mu_one)
+        error.append(richardson([mu_one, mu_finer]).error
+                     if np.isfinite(mu_one) and use_finer else np.nan)
+    return plotted, {"mu_fem_coarse": np.array(mu_coarse), "mu_fem_error": np.array(error),
+                     "fem_refinement": np.array(refinement)}
+
+
+def draw_fem(ax, x, runs, error, label: str) -> tuple[np.ndarray, np.ndarray]:
+    """The FEM's mu_s at ``x`` (filled circles, with ``error`` bars where finite) and, for
+    runs that failed before sliding inception, the F_t/F_n they reached (hollow triangles:
+    mu_s is at least that); return both [-] (NaN where absent)."""
     mu_fem = np.array([fem_mu(run) for run in runs])
     at_least = np.array([fem_mu_at_least(run) for run in runs])
-    ax.plot(x, mu_fem, "ko", label=fem_label(runs))
+    if np.isfinite(error).any():
+        label += " (on a 2x finer mesh where barred; bar: vs 1x)"
+    ax.errorbar(x, mu_fem, yerr=np.where(np.isfinite(error), error, 0.0), fmt="ko", ms=5,
+                capsize=3, label=label)
     if np.isfinite(at_least).any():
         ax.plot(x, at_least, "k^", mfc="none", label="FEM failed before inception: $\\mu_s \\geq$")
     return mu_fem, at_least
@@ -65,10 +95,12 @@ def surface_title(name: str) -> str:
 
 
 def psi_sweep_cases(load: float, n: int) -> list:
-    """Sliding runs of G1–G9 at F* = ``load``, then, at the :data:`WINDOW_SCATTER_LOADS`, those
-    of the windows on each surface's diagonal (``studies.paper.window_cases``), surface by
-    surface."""
+    """Sliding runs of G1–G9 at F* = ``load``; at the :data:`ERROR_BAR_LOADS` the same on a 2x
+    finer mesh; at the :data:`WINDOW_SCATTER_LOADS` those of the windows on each surface's
+    diagonal (``studies.paper.window_cases``), surface by surface."""
     cases = [fem_case(name, load, n) for name in GAUSSIAN_SURFACES]
+    if load in ERROR_BAR_LOADS:
+        cases += [error_bar_case(case) for case in cases]
     if load in WINDOW_SCATTER_LOADS:
         cases += [case for name in GAUSSIAN_SURFACES for case in window_cases(name, load, n)]
     return cases
@@ -81,7 +113,7 @@ def draw_window_scatter(ax, psi, runs) -> dict:
     per_surface = len(runs) // len(psi)
     mu = np.array([fem_mu(run) for run in runs], dtype=float).reshape(len(psi), per_surface)
     ax.plot(np.repeat(psi, per_surface), mu.ravel(), "_", color="0.45", ms=9, mew=1.5,
-            label=f"FEM, {per_surface} windows on the diagonal")
+            label=f"FEM, {per_surface} windows on the diagonal (1x mesh)")
     converged = np.isfinite(mu)
     low, high = ([reduce(row[ok]) if ok.any() else np.nan
                   for row, ok in zip(mu, converged, strict=True)] for reduce in (np.min, np.max))
@@ -95,13 +127,18 @@ def psi_sweep(load: float, runs):
     theory = [evaluate_theory(builtin_surface(name), load, material) for name in GAUSSIAN_SURFACES]
     psi = np.array([result.psi for result in theory])
     fig, ax = new_axes()
-    runs, others = runs[:len(psi)], runs[len(psi):]
-    mu_fem, at_least = draw_fem(ax, psi, runs)
+    coarse, others = runs[:len(psi)], runs[len(psi):]
+    fine = [None] * len(psi)
+    if load in ERROR_BAR_LOADS:
+        fine, others = others[:len(psi)], others[len(psi):]
+    runs, errors = error_bars(coarse, fine)
+    mu_fem, at_least = draw_fem(ax, psi, runs, errors["mu_fem_error"], fem_label(coarse))
     columns = {
         "surface": np.array(GAUSSIAN_SURFACES),
         "psi": psi,
-        "psi_fem": np.array([fem_psi(run) for run in runs]),
+        "psi_fem": np.array([fem_psi(run) for run in coarse]),
         "mu_fem": mu_fem,
+        **errors,
         "mu_fem_at_least": at_least,
         "fem_pressure_over_Sy": np.array([fem_contact_pressure(run) for run in runs]),
         "fem_nodes_per_patch": np.array([fem_nodes_per_patch(run) for run in runs]),
@@ -132,8 +169,11 @@ def psi_sweep(load: float, runs):
 
 
 def load_sweep_cases(name: str, n: int) -> list:
-    """Sliding runs of surface ``name`` at the FEM loads of Figs. 26–28."""
-    return [fem_case(name, load, n) for load in FEM_LOAD_SWEEP]
+    """Sliding runs of surface ``name`` at the FEM loads of Figs. 26–28, then those at the
+    :data:`ERROR_BAR_LOADS` on a 2x finer mesh."""
+    cases = [fem_case(name, load, n) for load in FEM_LOAD_SWEEP]
+    return cases + [error_bar_case(case) for case in cases
+                    if case.loading.load_star in ERROR_BAR_LOADS]
 
 
 def load_sweep(name: str, runs):
@@ -147,10 +187,13 @@ def load_sweep(name: str, runs):
     loads = np.array(LOAD_SWEEP)
     mu_let = np.array([result.mu_let for result in theory])
     let_valid = np.array([result.let_valid for result in theory])
-    fem_loads = np.array([run.load_star for run in runs])
-    psi_fem = np.array([fem_psi(run) for run in runs])
+    coarse, refined = runs[:len(FEM_LOAD_SWEEP)], iter(runs[len(FEM_LOAD_SWEEP):])
+    runs, errors = error_bars(coarse, [next(refined) if load in ERROR_BAR_LOADS else None
+                                       for load in FEM_LOAD_SWEEP])
+    fem_loads = np.array([run.load_star for run in coarse])
+    psi_fem = np.array([fem_psi(run) for run in coarse])
     fig, ax = new_axes()
-    mu_fem, at_least = draw_fem(ax, fem_loads, runs)
+    mu_fem, at_least = draw_fem(ax, fem_loads, runs, errors["mu_fem_error"], fem_label(coarse))
     ax.plot(loads, [result.mu_s for result in theory], "s-", color="C0", ms=4,
             label="multi-scale")
     draw_statistical(ax, loads, mu_let, let_valid, "LET (Eq. 20)",
@@ -173,6 +216,8 @@ def load_sweep(name: str, runs):
         "load_star": np.concatenate([fem_loads, loads, loads]),
         "psi_fem": np.concatenate([psi_fem, np.full(2 * len(loads), np.nan)]),
         "mu_s": np.concatenate([mu_fem, [result.mu_s for result in theory], mu_let]),
+        **{key: np.concatenate([values, np.full(2 * len(loads), np.nan)])
+           for key, values in errors.items()},
         "fem_pressure_over_Sy": np.concatenate([[fem_contact_pressure(run) for run in runs],
                                                 np.full(2 * len(loads), np.nan)]),
         "fem_nodes_per_patch": np.concatenate([[fem_nodes_per_patch(run) for run in runs],

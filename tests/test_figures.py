@@ -20,7 +20,7 @@ from roughfriction.scripts.figures import (
     read_table,
     write_table,
 )
-from roughfriction.studies.paper import FEM_LOAD_SWEEP
+from roughfriction.studies.paper import ERROR_BAR_LOADS, FEM_LOAD_SWEEP
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -74,7 +74,9 @@ def test_registry_lists_every_figure_script():
 def test_fem_figure_declares_its_runs(name):
     module = importlib.import_module(f"roughfriction.scripts.{name}")
     cases = module.fem_cases(8)
-    assert cases and all(isinstance(case, FemCase) and case.surface.n == 8 for case in cases)
+    # on the figure's grid, or a 2x finer mesh of it for an error bar
+    assert cases and all(isinstance(case, FemCase) and case.surface.n in (8, 16)
+                         for case in cases)
     assert callable(module.make)
 
 
@@ -112,7 +114,8 @@ def test_mu_vs_psi_marks_statistical_models_outside_their_range(monkeypatch):
     monkeypatch.setattr(fem_views, "tangential_curve",
                         lambda run: {"Ft_over_Fn": np.array([0.0, 1.2, 2.3])})
     mu_fem = [0.9, None, *[0.5] * 7]
-    fig, columns = fig22.make(fake_runs(fig22.fem_cases(8)[:9], mu_fem))
+    cases = fig22.fem_cases(8)  # 9 runs on the figure's mesh, 9 on a 2x finer one (not run)
+    fig, columns = fig22.make(fake_runs(cases, mu_fem + [None] * (len(cases) - 9)))
     assert np.isnan(columns["mu_fem"][1]) and columns["mu_fem"][0] == 0.9
     assert columns["mu_fem_at_least"][1] == 2.3
     assert np.isnan(np.delete(columns["mu_fem_at_least"], 1)).all()
@@ -131,8 +134,8 @@ def test_mu_vs_psi_marks_statistical_models_outside_their_range(monkeypatch):
 def test_mu_vs_psi_reports_the_psi_that_was_meshed():
     from roughfriction.scripts import fig22, fig26
 
-    cases = fig22.fem_cases(32)[:9]
-    runs = fake_runs(cases, [0.5] * 9)
+    cases = fig22.fem_cases(32)
+    runs = fake_runs(cases, [0.5] * len(cases))
     for run, case in zip(runs, cases, strict=True):
         run.maps, run.spacing = {"surface_heights": case.surface.heights}, case.surface.spacing
     fig, columns = fig22.make(runs)
@@ -154,19 +157,45 @@ def test_mu_vs_psi_at_low_load_shows_the_scatter_of_windows():
     from roughfriction.scripts import fig22, fig23
 
     cases = fig22.fem_cases(32)
-    assert len(cases) == 9 + 9 * 4 and len(fig23.fem_cases(32)) == 9
-    windows = cases[9:13]  # G1's
+    assert len(cases) == 9 + 9 + 9 * 4 and len(fig23.fem_cases(32)) == 9
+    windows = cases[18:22]  # G1's
     assert {case.surface.name for case in windows} == {"G1"}
     assert len({case.surface.heights.tobytes() for case in windows}) == 4
     assert all(case.surface.spacing == cases[0].surface.spacing for case in windows)
-    mu = [0.5] * 9 + [0.4, 0.6, None, 0.45] + [0.3] * 32
+    mu = [0.5] * 18 + [0.4, 0.6, None, 0.45] + [0.3] * 32
     fig, columns = fig22.make(fake_runs(cases, mu))
     assert columns["fem_windows"][0] == 3 and columns["fem_windows"][1] == 4
     assert columns["mu_fem_windows_min"][0] == 0.4 and columns["mu_fem_windows_max"][0] == 0.6
     assert list(columns["mu_fem"]) == [0.5] * 9
-    assert "FEM, 4 windows on the diagonal" in fig.axes[0].get_legend_handles_labels()[1]
+    assert "FEM, 4 windows on the diagonal (1x mesh)" in fig.axes[0].get_legend_handles_labels()[1]
     _, columns = fig23.make(fake_runs(fig23.fem_cases(32), [0.3] * 9))
     assert "fem_windows" not in columns
+
+
+def test_mu_vs_psi_error_bars_from_a_2x_finer_mesh():
+    """At F* = 0.155 each G surface also runs on a 2x finer mesh of the same surface: the
+    figure plots that mu_s with the first-order Richardson error |mu_2x - mu_1x|; where the
+    finer run failed, the figure's own run without a bar; at F* = 0.62 no finer runs."""
+    from roughfriction.geometry.surface import bilinear_refine
+    from roughfriction.scripts import fig22, fig23
+
+    cases = fig22.fem_cases(32)
+    for coarse, fine in zip(cases[:9], cases[9:18], strict=True):
+        assert fine.surface.n == 64 and fine.surface.spacing == coarse.surface.spacing / 2
+        np.testing.assert_array_equal(fine.surface.heights,
+                                      bilinear_refine(coarse.surface.heights, 2))
+    fine_mu = [0.6, None, 0.45, *[0.5] * 6]
+    coarse_mu = [0.5, 0.5, None, *[0.5] * 6]
+    fig, columns = fig22.make(fake_runs(cases, coarse_mu + fine_mu + [0.3] * 36))
+    np.testing.assert_allclose(columns["mu_fem"], [0.6, 0.5, 0.45, *[0.5] * 6])
+    np.testing.assert_allclose(columns["mu_fem_error"][[0, 3]], [0.1, 0.0], atol=1e-12)
+    assert np.isnan(columns["mu_fem_error"][1:3]).all()
+    assert list(columns["fem_refinement"]) == [2, 1, 2, *[2] * 6]
+    np.testing.assert_array_equal(columns["mu_fem_coarse"][[0, 1]], [0.5, 0.5])
+    labels = fig.axes[0].get_legend_handles_labels()[1]
+    assert any("2x finer mesh" in label for label in labels)
+    _, columns = fig23.make(fake_runs(fig23.fem_cases(32), [0.3] * 9))
+    assert np.isnan(columns["mu_fem_error"]).all() and set(columns["fem_refinement"]) == {1}
 
 
 def test_mu_vs_load_columns():
@@ -176,6 +205,11 @@ def test_mu_vs_load_columns():
     fig, columns = fig28.make(fake_runs(cases, [0.7] * len(cases)))
     fem = columns["model"] == "fem"
     assert list(columns["load_star"][fem]) == list(FEM_LOAD_SWEEP)
+    barred = np.isin(FEM_LOAD_SWEEP, ERROR_BAR_LOADS)
+    assert len(cases) == len(FEM_LOAD_SWEEP) + barred.sum()
+    assert list(columns["fem_refinement"][fem]) == list(np.where(barred, 2, 1))
+    np.testing.assert_array_equal(columns["mu_fem_error"][fem][barred], 0.0)
+    assert np.isnan(columns["mu_fem_error"][~fem]).all()
     let = columns["model"] == "let"
     assert all((columns["note"][let] == "") == (columns["load_star"][let] <= 0.3))
 
@@ -184,14 +218,14 @@ def test_mu_vs_psi_reports_how_well_the_patches_are_resolved():
     """F_n / (A_s S_y) and nodes per patch at inception, NaN without a contact area."""
     from roughfriction.scripts import fig22
 
-    cases = fig22.fem_cases(8)[:9]
-    runs = fake_runs(cases, [0.1] * 9)
+    cases = fig22.fem_cases(8)[:18]  # on the figure's mesh, then on a 2x finer one
+    runs = fake_runs(cases, [0.1] * 18)
     for run, case in zip(runs, cases, strict=True):
         run.spacing = case.surface.spacing
         nominal = (case.surface.n * case.surface.spacing) ** 2
         run.summary.update(Fn=0.155 * nominal * 1e9, area_ratio_sliding=0.05,
                            nodes_per_patch=2.5)
-    runs[8].summary["area_ratio_sliding"] = None
+    runs[17].summary["area_ratio_sliding"] = None  # G9's plotted run: the finer one
     _, columns = fig22.make(runs)
     np.testing.assert_allclose(columns["fem_pressure_over_Sy"][:8], 0.155 / 0.05)
     assert np.isnan(columns["fem_pressure_over_Sy"][8])
@@ -203,8 +237,8 @@ def test_mu_vs_load_notes_a_failed_run_with_its_lower_bound(monkeypatch):
 
     monkeypatch.setattr(fem_views, "tangential_curve",
                         lambda run: {"Ft_over_Fn": np.array([0.0, 0.61])})
-    cases = fig28.fem_cases(8)
-    fig, columns = fig28.make(fake_runs(cases, [None] + [0.7] * (len(cases) - 1)))
+    cases = fig28.fem_cases(8)  # 6 loads, then the lowest two on a 2x finer mesh
+    fig, columns = fig28.make(fake_runs(cases, [None] + [0.7] * 5 + [None, 0.7]))
     fem = columns["model"] == "fem"
     assert columns["note"][fem][0] == "failed before sliding inception: mu_s >= 0.61"
     assert not any(columns["note"][fem][1:])
