@@ -94,3 +94,29 @@ def test_a_failed_iterative_solve_falls_back_to_factorisations(monkeypatch):
     solver, relative_residual = limited_solve(monkeypatch, 2)
     assert "DIVERGED_MAX_IT" in solver.fell_back and solver.method == "direct"
     assert relative_residual < 1e-10
+
+
+def test_gamg_stays_definite_at_first_contact_of_a_refined_rough_surface(monkeypatch):
+    """An 8 x 8 window of G7 on a 2x refined mesh, preloaded to F* = 0.155: a few penalised
+    points on pyramid-tipped peaks. With Chebyshev bounds [0.2, 1.3] x lambda_max (10 estimate
+    iterations) GAMG's smoother was indefinite there (4 failed Krylov solves, then the LU
+    fallback); every solve must now converge with GAMG alone."""
+    from roughfriction.case import FemCase, Loading
+    from roughfriction.geometry.generate import builtin_surface
+    from roughfriction.solver.run import run
+    from roughfriction.studies.paper import surface_window
+    from roughfriction.studies.refinement import refined_case
+
+    reasons = []
+    apply = LinearSolver._apply
+
+    def recorded(self, rhs, solution, fresh):
+        apply(self, rhs, solution, fresh)
+        reasons.append(self.ksp.getConvergedReason())
+
+    monkeypatch.setattr(LinearSolver, "_apply", recorded)
+    window = surface_window(builtin_surface("G7"), 8, 5)
+    case = refined_case(FemCase(window, Loading(0.155, normal_only=True)), 2)
+    outcome = run(case, MPI.COMM_SELF, progress=lambda record: None)
+    assert outcome.result.converged and outcome.result.sizes["linear_solver_fallback"] == ""
+    assert reasons and min(reasons) > 0
