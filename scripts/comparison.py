@@ -32,11 +32,10 @@ from roughfriction.studies.paper import (
     GAUSSIAN_SURFACES,
     LOAD_SWEEP,
     WINDOW_SCATTER_LOADS,
-    error_bar_case,
     fem_case,
     window_cases,
 )
-from roughfriction.studies.refinement import richardson
+from roughfriction.studies.refinement import next_mesh, richardson
 
 STAND_INS = ("2L", "8L", "63M")
 #: Largest relative difference of the meshed surface's psi from the surface's own [-].
@@ -100,7 +99,7 @@ def psi_sweep_cases(load: float, n: int) -> list:
     diagonal (``studies.paper.window_cases``), surface by surface."""
     cases = [fem_case(name, load, n) for name in GAUSSIAN_SURFACES]
     if load in ERROR_BAR_LOADS:
-        cases += [error_bar_case(case) for case in cases]
+        cases += [next_mesh(case) for case in cases]
     if load in WINDOW_SCATTER_LOADS:
         cases += [case for name in GAUSSIAN_SURFACES for case in window_cases(name, load, n)]
     return cases
@@ -172,7 +171,7 @@ def load_sweep_cases(name: str, n: int) -> list:
     """Sliding runs of surface ``name`` at the FEM loads of Figs. 26–28, then those at the
     :data:`ERROR_BAR_LOADS` on a 2x finer mesh."""
     cases = [fem_case(name, load, n) for load in FEM_LOAD_SWEEP]
-    return cases + [error_bar_case(case) for case in cases
+    return cases + [next_mesh(case) for case in cases
                     if case.loading.load_star in ERROR_BAR_LOADS]
 
 

@@ -31,7 +31,7 @@ from roughfriction.case import FemCase, Loading, MeshOptions, SolverOptions
 from roughfriction.errors import ConvergenceError, InputError
 from roughfriction.geometry.surface import Surface, surface_on_fem_grid, validate_grid_points
 from roughfriction.material import Material
-from roughfriction.studies.refinement import refined_case, richardson
+from roughfriction.studies.refinement import next_mesh, richardson
 
 CONFIG_TABLES = {"mesh": MeshOptions, "solver": SolverOptions, "material": Material}
 CONFIG_KEYS = {"load", "n", "elastic", "normal_only"}
@@ -188,7 +188,7 @@ def run_fem(args) -> dict:
     coarse_output = output.with_name(f"{output.stem}_coarse{output.suffix}")
     save_run(coarse_output, case, outcome, comm, extra=meshed)
     _check_converged(outcome, coarse_output)
-    fine_case = refined_case(case, 2)
+    fine_case = next_mesh(case)
     fine = run(fine_case, comm)
     estimate = discretisation_error(outcome.result.summary(), fine.result.summary())
     save_run(output, fine_case, fine, comm, extra={**estimate, **meshed})

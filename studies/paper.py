@@ -38,8 +38,8 @@ WINDOW_SCATTER_LOADS = (0.155,)
 #: Most windows per surface in that scatter [-].
 SCATTER_WINDOWS = 4
 #: Loads F* at which the mu_s figures (22–28) also run each FEM point on a 2x finer mesh of the
-#: same surface (``studies.refinement``), for its error bar; above them the 2x runs cost hours
-#: on 2 cores and those points carry no bar (docs/verification.md).
+#: same surface (``studies.refinement.next_mesh``), for its error bar; above them the 2x runs
+#: cost hours on 2 cores and those points carry no bar (docs/verification.md).
 ERROR_BAR_LOADS = (0.06, 0.155)
 #: Surface and load F* of Fig. 15 (junction growth; Fig. 17 shows the theory at this load).
 JUNCTION_SURFACE, JUNCTION_LOAD = "2L", 0.5
@@ -118,13 +118,6 @@ def window_cases(name: str, load: float, n: int) -> list:
 
     return [FemCase(fem_surface(name, n, window), Loading(load))
             for window in scatter_windows(name, n)]
-
-
-def error_bar_case(case):
-    """The case on the 2x finer mesh of its error bar: the same surface, spacing halved."""
-    from roughfriction.studies.refinement import refined_case
-
-    return refined_case(case, 2)
 
 
 def fem_case(name: str, load: float, n: int, normal_only: bool = False):

@@ -25,6 +25,8 @@ from roughfriction.geometry.surface import Surface, bilinear_refine
 
 #: Order assumed with two meshes [-].
 ASSUMED_ORDER = 1.0
+#: Spacing ratio of consecutive meshes of a ladder (:func:`richardson`) [-].
+LADDER_RATIO = 2
 
 
 def refined_case(case: FemCase, factor: int) -> FemCase:
@@ -35,6 +37,11 @@ def refined_case(case: FemCase, factor: int) -> FemCase:
     fine = Surface(bilinear_refine(surface.heights, factor), surface.spacing / factor,
                    surface.name)
     return replace(case, surface=fine)
+
+
+def next_mesh(case: FemCase) -> FemCase:
+    """The case on the next mesh of a ladder: :data:`LADDER_RATIO` times finer."""
+    return refined_case(case, LADDER_RATIO)
 
 
 @dataclass(frozen=True)
@@ -86,7 +93,7 @@ def richardson(values, order: float = ASSUMED_ORDER) -> ErrorEstimate:
     if len(values) == 3:
         first, second = values[1] - values[0], values[2] - values[1]
         if second != 0.0 and first * second > 0.0 and abs(second) < abs(first):
-            order, observed = math.log2(abs(first) / abs(second)), True
+            order, observed = math.log(abs(first) / abs(second), LADDER_RATIO), True
     coarse, fine = values[-2], values[-1]
-    correction = (fine - coarse) / (2.0**order - 1.0)
+    correction = (fine - coarse) / (float(LADDER_RATIO)**order - 1.0)
     return ErrorEstimate(values, fine + correction, abs(correction), order, observed)
