@@ -53,12 +53,10 @@ MAX_ROUNDS = 5
 #: tolerances (multipliers need an equilibrium only as good as their own error) [-].
 UZAWA_RESIDUAL_TOLERANCE = 1e-4
 UZAWA_INCREMENT_TOLERANCE = 1e-2
-#: Krylov tolerance = FORCING_FACTOR x (||R|| + |r|) / F_n, clipped to [FORCING_MIN, FORCING_MAX]
-#: and to at least FORCING_FLOOR x the Newton tolerance / ((||R|| + |r|) / F_n) [-].
+#: Krylov tolerance = FORCING_FACTOR x (||R|| + |r|) / F_n, clipped to [FORCING_MIN, FORCING_MAX].
 FORCING_FACTOR = 0.1
 FORCING_MIN = 1e-10
 FORCING_MAX = 1e-3
-FORCING_FLOOR = 0.1
 
 
 @dataclass(frozen=True)
@@ -103,16 +101,13 @@ class _Iterate:
         return self.residual**2 + self.force_error**2
 
 
-def forcing_term(state: _Iterate, normal_force: float, residual_tolerance: float) -> float:
+def forcing_term(state: _Iterate, normal_force: float) -> float:
     """Relative Krylov tolerance of a Newton solve, proportional to the relative nonlinear
     residual (inexact Newton, Eisenstat-Walker choice 2 with exponent 1): loose far from the
     solution, tight near it, so convergence stays quadratic without over-solving early
-    iterations; but never tighter than needed to bring the linear residual to
-    ``FORCING_FLOOR`` x the Newton tolerance ``residual_tolerance`` (relative to F_n), below
-    which the next Newton residual cannot fall anyway (Eisenstat-Walker's safeguard) [-]."""
+    iterations [-]."""
     relative_residual = (state.residual + abs(state.force_error)) / normal_force
-    floor = FORCING_FLOOR * residual_tolerance / max(relative_residual, np.finfo(float).tiny)
-    return min(FORCING_MAX, max(FORCING_MIN, FORCING_FACTOR * relative_residual, floor))
+    return min(FORCING_MAX, max(FORCING_MIN, FORCING_FACTOR * relative_residual))
 
 
 class Equilibrium:
@@ -352,7 +347,7 @@ class Equilibrium:
             self.assemble_tangent(state.contact)
             try:
                 height_increment, its = self._bordered_solve(
-                    state.force_error, forcing_term(state, normal_force, residual_tolerance))
+                    state.force_error, forcing_term(state, normal_force))
             except LinearSolveError as error:
                 reason = str(error)
                 break

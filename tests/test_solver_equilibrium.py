@@ -73,21 +73,3 @@ def test_a_converged_step_is_one_newton_increment_from_the_solution(monkeypatch)
     assert result.converged, result.message
     assert len(moves) > 5
     assert max(moves) <= 1.0, f"a converged step moved {max(moves):.3g} x the tolerance"
-
-
-
-def test_krylov_tolerance_never_asks_below_a_tenth_of_the_newton_tolerance():
-    """The forcing term follows the relative residual (capped at 1e-3) but stops where the
-    linear residual it asks for reaches a tenth of the Newton tolerance: at a residual of
-    1e-4 F_n and a tolerance of 1e-6 F_n it is 1e-3, not 1e-5."""
-    from roughfriction.solver.equilibrium import _Iterate, forcing_term
-
-    def tolerance(residual, newton_tolerance):
-        return forcing_term(_Iterate(None, residual, 0.0), 1.0, newton_tolerance)
-
-    assert tolerance(1e-4, 1e-6) == pytest.approx(1e-3)
-    assert tolerance(1e-5, 1e-6) == pytest.approx(1e-3)  # cap
-    assert tolerance(1e-2, 1e-6) == pytest.approx(1e-3)  # cap
-    assert tolerance(1e-3, 1e-8) == pytest.approx(1e-4)  # the residual's own term
-    for residual in np.logspace(-4, -2, 5):  # (below 1e-4 F_n the 1e-3 cap is the tighter)
-        assert tolerance(residual, 1e-6) * residual >= 0.1 * 1e-6 * (1 - 1e-9)
