@@ -18,7 +18,7 @@ DEBIAN_PACKAGES := python3-dolfinx-real python3-petsc4py-real python3-mpi4py pyt
 	python3-h5py python3-scipy python3-matplotlib python3-venv libopenblas0-serial
 
 .PHONY: setup test lint figures gallery bench bench-multiscale bench-fem bench-error \
-	bench-error-quick stress clean
+	bench-error-quick bench-profile stress clean
 
 # --- set-up -----------------------------------------------------------------------------
 $(VENV)/.apt-done:
@@ -119,6 +119,14 @@ bench-error: setup
 
 bench-error-quick: setup
 	@$(MPIRUN) $(VENV)/bin/roughfriction bench error --quick
+
+# Where one FEM run's time goes (studies/profile.py): seconds per phase (residual assembly,
+# return map, contact law, reduced tangent, linear solves) and Krylov iterations per kind of
+# solve -> results/bench/profile_*.json. `make bench-profile PROFILE_CASE=G1:1.86 N=32`.
+PROFILE_CASE ?= G5:0.155
+bench-profile: setup
+	@$(MPIRUN) $(VENV)/bin/roughfriction bench profile $(firstword $(subst :, ,$(PROFILE_CASE))) \
+	  --load $(lastword $(subst :, ,$(PROFILE_CASE))) --n $(N)
 
 bench: bench-multiscale bench-fem bench-error
 

@@ -126,7 +126,15 @@ def add_bench_commands(bench) -> None:
     matrix.add_argument("--plan", action="store_true",
                         help="print the runs (cached, to compute) and exit")
     matrix.set_defaults(run=cmd_bench_stress)
-    for parser in (multiscale, fem, error, matrix):
+    profile = kinds.add_parser("profile", help="where one FEM run's time goes (run under "
+                               "mpirun) -> " + str(BENCH_DIR / "profile_<case>.json"))
+    profile.add_argument("surface", help="built-in surface (G1-G9 meshed as a window of their "
+                         "own grid, the others re-gridded, as in the figures)")
+    profile.add_argument("--load", type=float, required=True, help="F* = F_n / (A_n S_y)")
+    profile.add_argument("--n", type=int, default=DEFAULT_FEM_N,
+                         help=f"surface cells per side (default {DEFAULT_FEM_N})")
+    profile.set_defaults(run=cmd_bench_profile)
+    for parser in (multiscale, fem, error, matrix, profile):
         parser.add_argument("--json", action="store_true", help="one JSON object on stdout")
 
 
@@ -137,6 +145,42 @@ def cmd_bench_fem(args) -> dict:
 
     cases = [parse_case(text) for text in args.case]
     return {"runs": benchmark_sizes(args.n, args.ranks, cases), "csv": str(FEM_DIR / "fem.csv")}
+
+
+def cmd_bench_profile(args) -> dict:
+    """Time per phase and Krylov iterations of one figure case (:mod:`studies.profile`),
+    written as JSON to ``results/bench/profile_<surface>_F<load>_N<n>_<ranks>ranks.json``."""
+    import json
+
+    from mpi4py import MPI
+    from roughfriction.errors import ConvergenceError
+    from roughfriction.files import atomic_write
+    from roughfriction.solver.run import stderr_progress
+    from roughfriction.studies.paper import fem_case
+    from roughfriction.studies.profile import profile_run
+
+    comm = MPI.COMM_WORLD
+    case = fem_case(args.surface, args.load, args.n)
+    fem, profile = profile_run(case, comm, stderr_progress(comm))
+    summary = fem.result.summary()
+    fem.equilibrium.destroy()
+    profile |= {"case": {"surface": args.surface, "load_star": args.load, "n": args.n,
+                         "ranks": comm.size},
+                **{key: summary[key] for key in ("mu_s", "newton_iterations", "steps",
+                                                 "cut_steps", "converged")}}
+    path = BENCH_DIR / f"profile_{args.surface}_F{args.load:g}_N{args.n}_{comm.size}ranks.json"
+    if comm.rank == 0:
+        atomic_write(path, lambda tmp: Path(tmp).write_text(json.dumps(profile, indent=1)))
+    if not summary["converged"]:
+        raise ConvergenceError(f"{fem.result.message} (profile written to {path})")
+    record = {key: profile[key] for key in ("wall_s", "newton_iterations", "cut_steps", "mu_s")}
+    for phase, row in profile["phases"].items():
+        record[f"{phase} [s]"] = row["seconds"]
+        record[f"{phase} [share]"] = row["share"]
+    for kind, row in profile["linear_solves"].items():
+        record[f"{kind} solves / its / largest"] = (
+            f"{row['solves']} / {row['krylov_iterations']} / {row['largest']}")
+    return record | {"json": str(path)}
 
 
 def cmd_bench_error(args) -> dict:

@@ -1,0 +1,45 @@
+"""studies.profile: time per phase and Krylov iterations of one FEM run."""
+
+import dolfinx  # noqa: F401  (an install without the FEM fails here)
+import numpy as np
+import pytest
+from mpi4py import MPI
+from roughfriction.case import FemCase, Loading
+from roughfriction.geometry.surface import Surface
+from roughfriction.solver.equilibrium import Equilibrium
+from roughfriction.solver.linear import LinearSolver
+from roughfriction.studies.profile import PHASES, profile_run
+
+pytestmark = pytest.mark.fem
+
+
+def test_profile_counts_every_newton_solve_and_removes_its_wrappers():
+    """A random 8 x 8 surface preloaded and slid: every Newton iteration is one tangent and two
+    linear solves (x1, x2), the nested phases fit inside the residual assembly, the phases fit
+    inside the wall time, and the solver's methods are the originals afterwards."""
+    originals = (Equilibrium.assemble, Equilibrium.assemble_tangent, LinearSolver.solve)
+    heights = np.random.default_rng(3).normal(0.0, 1e-7, (8, 8))
+    case = FemCase(Surface(heights, 1e-6, "test"), Loading(0.3))
+    fem, profile = profile_run(case, MPI.COMM_WORLD, progress=lambda record: None)
+    result = fem.result
+    fem.equilibrium.destroy()
+    assert result.converged, result.message
+
+    phases, solves = profile["phases"], profile["linear_solves"]
+    assert {phase.strip() for phase, *_ in PHASES} == set(phases)
+    newton = sum(record.newton_iterations for record in result.records)
+    assert phases["reduced tangent"]["calls"] >= newton
+    x1 = sum(row["solves"] for kind, row in solves.items() if kind.startswith("x1"))
+    x2 = sum(row["solves"] for kind, row in solves.items() if kind.startswith("x2"))
+    assert x1 == x2 == phases["reduced tangent"]["calls"]
+    assert phases["linear solves"]["calls"] == x1 + x2
+    krylov = sum(row["krylov_iterations"] for row in solves.values())
+    assert krylov >= sum(record.krylov_iterations for record in result.records)
+    residual = phases["residual assembly"]
+    assert residual["calls"] == phases["stress update"]["calls"] == phases["contact law"]["calls"]
+    nested = phases["stress update"]["seconds"] + phases["contact law"]["seconds"]
+    assert nested <= residual["seconds"]
+    top = sum(phases[name]["seconds"] for name in ("residual assembly", "reduced tangent",
+                                                      "linear solves"))
+    assert top <= profile["wall_s"]
+    assert (Equilibrium.assemble, Equilibrium.assemble_tangent, LinearSolver.solve) == originals
