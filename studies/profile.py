@@ -54,9 +54,11 @@ class Profile:
         """The profile of all ranks: per phase the largest rank's seconds [s], its share of
         ``wall`` [-] and the calls; per kind of linear solve the number of solves, their Krylov
         iterations and the largest [-]. Collective."""
+        from mpi4py import MPI
+
         phases = {}
         for phase, *_ in PHASES:
-            seconds = comm.allreduce(self.seconds.get(phase, 0.0), op=_max(comm))
+            seconds = comm.allreduce(self.seconds.get(phase, 0.0), op=MPI.MAX)
             phases[phase.strip()] = {"seconds": seconds, "share": seconds / wall,
                                      "calls": self.calls.get(phase, 0)}
         solves = {kind: {"solves": len(its), "krylov_iterations": int(sum(its)),
@@ -65,15 +67,16 @@ class Profile:
         return {"wall_s": wall, "phases": phases, "linear_solves": solves}
 
 
-def _max(comm):
-    from mpi4py import MPI
+def _record_krylov(profile: Profile, solver, rhs, solution, warm_start=False, *_, **__):
+    """Note the Krylov iterations of a finished ``LinearSolver.solve``: "x2" for the
+    warm-started solve of the bordered system, else "x1", and the Krylov method."""
+    kind = "x2" if warm_start else "x1"
+    profile.krylov[f"{kind} {solver.ksp.getType()}"].append(solver.last_iterations)
 
-    return MPI.MAX
 
-
-def _timed(profile: Profile, phase: str, method):
-    """``method`` timed into ``profile`` (re-entrant calls, e.g. a solve retried from inside
-    itself, counted once)."""
+def _timed(profile: Profile, phase: str, method, after=None):
+    """``method`` timed into ``profile``, then, if it returned, ``after(profile, *args,
+    **kwargs)`` (re-entrant calls, e.g. a solve retried from inside itself, counted once)."""
     depth = [0]
 
     def wrapper(*args, **kwargs):
@@ -86,10 +89,8 @@ def _timed(profile: Profile, phase: str, method):
             if depth[0] == 0:
                 profile.seconds[phase] += time.perf_counter() - start
                 profile.calls[phase] += 1
-        if depth[0] == 0 and method.__name__ == "solve" and phase == "linear solves":
-            solver = args[0]
-            kind = "x2" if kwargs.get("warm_start", args[3] if len(args) > 3 else False) else "x1"
-            profile.krylov[f"{kind} {solver.ksp.getType()}"].append(int(result))
+        if depth[0] == 0 and after is not None:
+            after(profile, *args, **kwargs)
         return result
 
     return wrapper
@@ -104,7 +105,8 @@ def measured(profile: Profile):
             owner = getattr(importlib.import_module(module), name)
             original = owner.__dict__[method]
             originals.append((owner, method, original))
-            setattr(owner, method, _timed(profile, phase, original))
+            after = _record_krylov if phase == "linear solves" else None
+            setattr(owner, method, _timed(profile, phase, original, after))
         yield profile
     finally:
         for owner, method, original in reversed(originals):
