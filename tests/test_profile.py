@@ -43,3 +43,21 @@ def test_profile_counts_every_newton_solve_and_removes_its_wrappers():
                                                       "linear solves"))
     assert top <= profile["wall_s"]
     assert (Equilibrium.assemble, Equilibrium.assemble_tangent, LinearSolver.solve) == originals
+
+
+def test_bench_profile_command_writes_its_json(tmp_path, monkeypatch, capsys):
+    """``roughfriction bench profile G5 --load 0.155 --n 8 --json``: one figure case profiled,
+    the same numbers on stdout and in results/bench/profile_G5_F0.155_N8_1ranks.json."""
+    import json
+
+    from roughfriction.scripts import bench
+    from roughfriction.scripts.cli import main
+
+    monkeypatch.setattr(bench, "BENCH_DIR", tmp_path)
+    assert main(["bench", "profile", "G5", "--load", "0.155", "--n", "8", "--json"]) == 0
+    record = json.loads(capsys.readouterr().out)
+    written = json.loads((tmp_path / "profile_G5_F0.155_N8_1ranks.json").read_text())
+    assert written["case"] == {"surface": "G5", "load_star": 0.155, "n": 8, "ranks": 1}
+    assert written["converged"] and written["mu_s"] == pytest.approx(record["mu_s"])
+    assert record["linear solves [s]"] == pytest.approx(
+        written["phases"]["linear solves"]["seconds"])
