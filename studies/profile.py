@@ -22,14 +22,7 @@ from collections import defaultdict
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 
-#: (phase, module, class, method) of the timed methods; a phase nested in another is indented.
-PHASES = (
-    ("residual assembly", "roughfriction.solver.equilibrium", "Equilibrium", "assemble"),
-    ("  stress update", "roughfriction.solver.solid", "Solid", "update_stress"),
-    ("  contact law", "roughfriction.solver.contact", "RigidFlat", "respond"),
-    ("reduced tangent", "roughfriction.solver.equilibrium", "Equilibrium", "assemble_tangent"),
-    ("linear solves", "roughfriction.solver.linear", "LinearSolver", "solve"),
-)
+from mpi4py import MPI
 
 
 @dataclass
@@ -54,8 +47,6 @@ class Profile:
         """The profile of all ranks: per phase the largest rank's seconds [s], its share of
         ``wall`` [-] and the calls; per kind of linear solve the number of solves, their Krylov
         iterations and the largest [-]. Collective."""
-        from mpi4py import MPI
-
         phases = {}
         for phase, *_ in PHASES:
             seconds = comm.allreduce(self.seconds.get(phase, 0.0), op=MPI.MAX)
@@ -96,16 +87,27 @@ def _timed(profile: Profile, phase: str, method, after=None):
     return wrapper
 
 
+#: (phase, module, class, method, what to note after a call) of the timed methods; a phase
+#: nested in another is indented.
+PHASES = (
+    ("residual assembly", "roughfriction.solver.equilibrium", "Equilibrium", "assemble", None),
+    ("  stress update", "roughfriction.solver.solid", "Solid", "update_stress", None),
+    ("  contact law", "roughfriction.solver.contact", "RigidFlat", "respond", None),
+    ("reduced tangent", "roughfriction.solver.equilibrium", "Equilibrium", "assemble_tangent",
+     None),
+    ("linear solves", "roughfriction.solver.linear", "LinearSolver", "solve", _record_krylov),
+)
+
+
 @contextmanager
 def measured(profile: Profile):
     """Time the :data:`PHASES` into ``profile`` while the block runs."""
     originals = []
     try:
-        for phase, module, name, method in PHASES:
+        for phase, module, name, method, after in PHASES:
             owner = getattr(importlib.import_module(module), name)
             original = owner.__dict__[method]
             originals.append((owner, method, original))
-            after = _record_krylov if phase == "linear solves" else None
             setattr(owner, method, _timed(profile, phase, original, after))
         yield profile
     finally:

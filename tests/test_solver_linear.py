@@ -105,7 +105,7 @@ def test_gamg_stays_definite_at_first_contact_of_a_refined_rough_surface(monkeyp
     from roughfriction.geometry.generate import builtin_surface
     from roughfriction.solver.run import run
     from roughfriction.studies.paper import surface_window
-    from roughfriction.studies.refinement import refined_case
+    from roughfriction.studies.refinement import next_mesh
 
     reasons = []
     apply = LinearSolver._apply
@@ -116,7 +116,7 @@ def test_gamg_stays_definite_at_first_contact_of_a_refined_rough_surface(monkeyp
 
     monkeypatch.setattr(LinearSolver, "_apply", recorded)
     window = surface_window(builtin_surface("G7"), 8, 5)
-    case = refined_case(FemCase(window, Loading(0.155, normal_only=True)), 2)
+    case = next_mesh(FemCase(window, Loading(0.155, normal_only=True)))
     outcome = run(case, MPI.COMM_SELF, progress=lambda record: None)
     assert outcome.result.converged and outcome.result.sizes["linear_solver_fallback"] == ""
     assert reasons and min(reasons) > 0
