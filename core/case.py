@@ -139,7 +139,7 @@ class SolverOptions:
     integration: str = "selective"
     penalty: float = 40.0
     tangential_penalty: float = 0.1
-    friction_ramp: float = 0.025
+    friction_ramp: float = 0.01
     contact_points: int = 2
     penetration_tolerance: float = 1e-4
     max_augmentations: int = 10
