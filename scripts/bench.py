@@ -155,6 +155,7 @@ def cmd_bench_profile(args) -> dict:
     from mpi4py import MPI
     from roughfriction.errors import ConvergenceError
     from roughfriction.files import atomic_write
+    from roughfriction.scripts.bench_fem import case_stem
     from roughfriction.solver.run import stderr_progress
     from roughfriction.studies.paper import fem_case
     from roughfriction.studies.profile import profile_run
@@ -168,7 +169,7 @@ def cmd_bench_profile(args) -> dict:
                          "ranks": comm.size},
                 **{key: summary[key] for key in ("mu_s", "newton_iterations", "steps",
                                                  "cut_steps", "converged")}}
-    path = BENCH_DIR / f"profile_{args.surface}_F{args.load:g}_N{args.n}_{comm.size}ranks.json"
+    path = BENCH_DIR / f"profile_{case_stem(args.surface, args.load, args.n, comm.size)}.json"
     if comm.rank == 0:
         atomic_write(path, lambda tmp: Path(tmp).write_text(json.dumps(profile, indent=1)))
     if not summary["converged"]:

@@ -40,10 +40,15 @@ def parse_case(text: str) -> tuple[str, float]:
         raise InputError(f"a benchmark case is SURFACE:LOAD, e.g. G5:0.155, got {text!r}") from None
 
 
+def case_stem(surface: str, load: float, n: int, ranks: int) -> str:
+    """``<surface>_F<load>_N<n>_<ranks>ranks``: the file name of one benchmark case's output."""
+    return f"{surface}_F{load:g}_N{n}_{ranks}ranks"
+
+
 def run_size(surface: str, load: float, n: int, ranks: int) -> dict:
     """Run one case and grid size through ``roughfriction.scripts.fem`` under mpirun; return
     its row."""
-    output = BENCH_DIR / f"fem_{surface}_F{load:g}_N{n}_{ranks}ranks.h5"
+    output = BENCH_DIR / f"fem_{case_stem(surface, load, n, ranks)}.h5"
     command = ["mpirun", "-n", str(ranks), "--oversubscribe", sys.executable, "-m",
                "roughfriction.scripts.fem", surface, "--load", str(load), "--n", str(n),
                "--json", "--output", str(output)]
