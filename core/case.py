@@ -117,7 +117,8 @@ class SolverOptions:
         Largest reduced system solved directly by "auto" [dofs]. A nearly incompressible solid
         (nu -> 0.5) needs "direct": GAMG-preconditioned CG then stalls.
     residual_tolerance : float
-        Newton: ||R|| and |sum p a - F_n| below this times F_n [-].
+        Newton: ||R|| and |sum p a - F_n| below this times F_n [-] (a Newton solve that
+        stagnates within ``solver.equilibrium.RESIDUAL_FLOOR`` times it is accepted).
     increment_tolerance : float
         Newton: max |du| below this times the grid spacing [-] (the penetration tolerance:
         the displacement is not known better than that).
@@ -139,7 +140,7 @@ class SolverOptions:
     integration: str = "selective"
     penalty: float = 40.0
     tangential_penalty: float = 0.1
-    friction_ramp: float = 0.01
+    friction_ramp: float = 0.025
     contact_points: int = 2
     penetration_tolerance: float = 1e-4
     max_augmentations: int = 10

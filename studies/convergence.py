@@ -68,7 +68,7 @@ VARIANTS = (
     ("solver", "integration", ("full",)),  # default "selective" (SRI)
     ("solver", "first_slide", (0.005, 0.08)),  # tangential step size, default 0.02
     ("solver", "residual_tolerance", (1e-4, 1e-8)),  # default 1e-6
-    ("solver", "penalty", (1.0, 100.0)),  # default 10 E'/h
+    ("solver", "penalty", (1.0, 100.0)),  # default 40 E'/h
 )
 #: Knobs without effect on a normal-only run (not run for the sinusoid).
 SLIDING_ONLY = ("first_slide",)
