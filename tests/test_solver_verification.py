@@ -223,21 +223,23 @@ def test_stick_penalty_times_ten_or_a_tenth_changes_mu_s_by_less_than_one_percen
 
 # --- friction at the edge of a contact patch --------------------------------------------------
 
-def test_edge_node_with_vanishing_pressure_lets_the_contact_reach_sliding_inception():
-    """A random 16 x 16 surface at F* = 0.3, which with the pure cap tau_c stalled two nodes
-    short of inception (the edge node had no consistent state, see solver.contact): with the
-    pressure ramp of the cap it slides, and halving or doubling the ramp pressure barely moves
-    mu_s (measured with eps_T = eps_N: 0.41868 at p_r = 0.01 S_y, 0.41819 at 0.02 S_y; the pure
-    cap fails with 54 of 56 nodes slipping)."""
-    heights = np.random.default_rng(7).normal(0.0, 0.1 * SPACING, (16, 16))
+def test_halving_or_doubling_the_ramp_pressure_changes_mu_s_by_less_than_one_percent():
+    """G5 on 16 x 16 at F* = 0.62 (~200 contact nodes) slides to inception with p_r = 0.0125,
+    0.025 (default) and 0.05 S_y, and mu_s moves by less than 1 % (measured: +0.28 %, -0.57 %;
+    the pure cap converges here too, 0.18097 against 0.18029: it fails by contact-set cycling
+    on the 32 x 32 bench rows, see docs/method.md)."""
+    surface = surface_on_fem_grid(builtin_surface("G5"), 16)
     mu = {}
-    for ramp in (0.01, 0.02):
-        result = run_case(heights, 0.3, friction_ramp=ramp).result
+    for ramp in (0.0125, 0.025, 0.05):
+        case = FemCase(surface, Loading(0.62), solver=SolverOptions(friction_ramp=ramp))
+        result = run(case, MPI.COMM_WORLD, progress=lambda record: None).result
         assert result.converged, result.message
         last = result.records[-1]
-        assert last.slipping_nodes == last.contact_nodes > 50
+        assert last.slipping_nodes == last.contact_nodes > 150
         mu[ramp] = result.mu_s
-    assert mu[0.02] == pytest.approx(mu[0.01], rel=0.005)
+    assert mu[0.0125] == pytest.approx(mu[0.025], rel=0.01)
+    assert mu[0.05] == pytest.approx(mu[0.025], rel=0.01)
+    assert mu[0.0125] != mu[0.025]  # the ramp acts on this surface
 
 
 def test_newton_accepts_a_residual_floor_near_inception():
