@@ -7,8 +7,8 @@
 * Volumetric locking: nearly incompressible, SRI keeps p*, full integration does not.
 """
 
+import functools
 import math
-from dataclasses import replace
 
 import dolfinx  # noqa: E402, F401  (an install without the FEM fails here)
 import numpy as np
@@ -223,19 +223,31 @@ def test_stick_penalty_times_ten_or_a_tenth_changes_mu_s_by_less_than_one_percen
 
 # --- friction at the edge of a contact patch --------------------------------------------------
 
+@functools.cache
+def g5_16_alone(load: float, friction_ramp: float):
+    """The result of a standalone run of G5 re-gridded to 16 x 16 at F* = ``load`` with
+    p_r = ``friction_ramp`` S_y (cached: the tests below share runs and only read them)."""
+    case = FemCase(surface_on_fem_grid(builtin_surface("G5"), 16), Loading(load),
+                   solver=SolverOptions(friction_ramp=friction_ramp))
+    return run(case, MPI.COMM_WORLD, progress=lambda record: None).result
+
+
+def assert_at_inception(result, min_contact_nodes: int) -> None:
+    """Converged, with every one of more than ``min_contact_nodes`` contact nodes slipping."""
+    assert result.converged, result.message
+    last = result.records[-1]
+    assert last.slipping_nodes == last.contact_nodes > min_contact_nodes
+
+
 def test_halving_or_doubling_the_ramp_pressure_changes_mu_s_by_less_than_one_percent():
     """G5 on 16 x 16 at F* = 0.62 (~200 contact nodes) slides to inception with p_r = 0.0125,
     0.025 (default) and 0.05 S_y, and mu_s moves by less than 1 % (measured: +0.28 %, -0.57 %;
     the pure cap converges here too, 0.18097 against 0.18029: it fails by contact-set cycling
     on the 32 x 32 bench rows, see docs/method.md)."""
-    surface = surface_on_fem_grid(builtin_surface("G5"), 16)
     mu = {}
     for ramp in (0.0125, 0.025, 0.05):
-        case = FemCase(surface, Loading(0.62), solver=SolverOptions(friction_ramp=ramp))
-        result = run(case, MPI.COMM_WORLD, progress=lambda record: None).result
-        assert result.converged, result.message
-        last = result.records[-1]
-        assert last.slipping_nodes == last.contact_nodes > 150
+        result = g5_16_alone(0.62, ramp)
+        assert_at_inception(result, 150)
         mu[ramp] = result.mu_s
     assert mu[0.0125] == pytest.approx(mu[0.025], rel=0.01)
     assert mu[0.05] == pytest.approx(mu[0.025], rel=0.01)
@@ -247,12 +259,7 @@ def test_newton_accepts_a_residual_floor_near_inception():
     1.03-1.2e-6 F_n, just above the 1e-6 F_n tolerance, and the run ended with 205 of 209
     nodes slipping once the slide increment could not be cut further. A floor within
     RESIDUAL_FLOOR times the tolerance is accepted, and the run reaches inception."""
-    surface = surface_on_fem_grid(builtin_surface("G5"), 16)
-    case = FemCase(surface, Loading(0.62), solver=SolverOptions(friction_ramp=0.05))
-    result = run(case, MPI.COMM_WORLD, progress=lambda record: None).result
-    assert result.converged, result.message
-    last = result.records[-1]
-    assert last.slipping_nodes == last.contact_nodes > 150
+    assert_at_inception(g5_16_alone(0.62, 0.05), 150)
 
 
 # --- shared normal loading path ---------------------------------------------------------------
@@ -268,8 +275,7 @@ def test_loads_sharing_one_preload_match_standalone_runs():
     surface = surface_on_fem_grid(builtin_surface("G5"), 16)
     case = FemCase(surface, Loading(0.155))
     low, high = run_loads(case, [0.62, 0.155], MPI.COMM_WORLD, progress=lambda record: None)
-    alone = {load: run(replace(case, loading=Loading(load)), MPI.COMM_WORLD,
-                       progress=lambda record: None).result for load in (0.155, 0.62)}
+    alone = {load: g5_16_alone(load, case.solver.friction_ramp) for load in (0.155, 0.62)}
 
     assert high.result.summary()["mu_s"] == alone[0.155].summary()["mu_s"]
     assert [r.phase for r in high.result.records] == [r.phase for r in alone[0.155].records]
