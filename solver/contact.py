@@ -219,14 +219,14 @@ class RigidFlat:
             Stick law without cap for points that stuck at the last converged step.
         active : numpy.ndarray, optional
             Frozen contact set of the points, bool: these carry lambda_q - eps_N g_q even if it
-            is negative, the others none (a smooth problem for Newton; the caller judges a
-            converged iterate under the free law).
+            is negative; the others join when they penetrate (the set only grows: no cycling;
+            the caller judges a converged iterate under the free law).
         """
         eps, eps_t = self.penalty, self.tangential_penalty
         u = self.interpolate(self.gather_nodes(displacement[self.nodes]))
         gap = flat_height - (self.heights + u[:, 2])
         trial_pressure = self.multiplier - eps * gap
-        in_contact = trial_pressure > 0.0 if active is None else active
+        in_contact = trial_pressure > 0.0 if active is None else active | (trial_pressure > 0.0)
         pressure = np.where(in_contact, trial_pressure, 0.0)
         relative = np.column_stack([flat_slide - u[:, 0], -u[:, 1]])  # w [m]
         trial = eps_t * (relative - self.stick_offset)

@@ -42,11 +42,13 @@ STAGNATION_WINDOW = 4
 #: the floor set by the inexact Krylov solves and the kinks of the contact law: it is accepted,
 #: not cut (Newton tolerances 1e-4 and 1e-8 F_n give the same mu_s to 0.06 %) [-].
 RESIDUAL_FLOOR = 10.0
-#: Newton iterations with the contact law free; then the contact set is frozen (a smooth
-#: problem: no open/closed cycling) until the iterate converges; it is accepted if it also
-#: meets the tolerances under the law itself, else the set is re-frozen at the law's set there
-#: (a primal active-set strategy). The slip set is not frozen: a frozen slipping point below
-#: the cap has a traction direction that jumps with a tiny trial vector [-].
+#: Newton iterations with the contact law free; then the contact set is frozen until the
+#: iterate converges: its points stay in contact, and points that penetrate join it (the set
+#: only grows: no open/closed cycling, and a flat carried by a few yielding peaks cannot sink
+#: through open points it does not see); the iterate is accepted if it also meets the
+#: tolerances under the law itself, else the set is re-frozen at the law's set there (a primal
+#: active-set strategy). The slip set is not frozen: a frozen slipping point below the cap has
+#: a traction direction that jumps with a tiny trial vector [-].
 FREEZE_AFTER = 3
 #: Active-set rounds (freezes) per Newton solve [-]. Each round has its own budget of
 #: ``max_iterations``, and a new round is started only while fewer nodes change their contact
@@ -367,6 +369,8 @@ class Equilibrium:
                                             flat_slide, friction, full_step=predictor)
             increment = step * self._x1.norm(PETSc.NormType.NORM_INFINITY)
             predictor = False
+            if self._active is not None:  # points that entered contact stay in this round
+                self._active = state.contact.in_contact
         self._active = None
         return NewtonReport(False, iteration, krylov, state.residual / normal_force, state.contact,
                             reason)

@@ -87,6 +87,20 @@ def test_contact_area_is_the_measure_of_the_points_in_contact():
             flat.area_ratio(response.in_contact) * (N * SPACING) ** 2)
 
 
+def test_a_frozen_set_keeps_its_points_and_takes_in_penetrating_ones():
+    """With a frozen contact set its points stay in contact even in tension, and points
+    outside it join as soon as they penetrate (the set can only grow within a round)."""
+    heights = np.zeros((N, N))
+    heights[1, 1] = 1e-8
+    flat = flat_over(heights)
+    free = flat.respond(still(), 0.5e-8, 0.0, friction=False)
+    frozen = np.zeros_like(free.in_contact)
+    frozen[0] = True  # a point of face (0, 0), below the flat: in tension
+    response = flat.respond(still(), 0.5e-8, 0.0, friction=False, active=frozen)
+    np.testing.assert_array_equal(response.in_contact, free.in_contact | frozen)
+    assert free.in_contact.any() and not free.in_contact[0] and response.pressure[0] < 0.0
+
+
 @pytest.mark.parametrize("pressure", [2.5e6, 1e9])
 def test_slipping_point_carries_the_cap_along_the_trial_direction(pressure):
     flat = anchored(flat_over())
