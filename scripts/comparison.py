@@ -2,7 +2,7 @@
 (Figs. 22–28). The theory uses each surface on its own 128 x 128 grid; the FEM the surface of
 ``studies.paper.fem_surface`` (for G1–G9 a window at their own spacing), whose psi is in the
 ``psi_fem`` column and, where it is more than 3 % off the surface's, on the figure; the
-columns ``fem_pressure_over_Sy`` and ``fem_nodes_per_patch`` say how well the mesh resolves
+columns ``fem_pressure_over_Sy`` and ``fem_cells_per_patch`` say how well the mesh resolves
 the contact patches (``scripts.fem_views``); at low load ``fem_windows``,
 ``mu_fem_windows_min`` and ``mu_fem_windows_max`` give the scatter of the windows (on the
 figure's mesh). At the ``ERROR_BAR_LOADS`` a point is the mu_s on a 2x finer mesh of the same
@@ -18,11 +18,11 @@ from roughfriction.material import Material
 from roughfriction.multiscale.scales import scale_decomposition
 from roughfriction.multiscale.theory import evaluate_theory
 from roughfriction.scripts.fem_views import (
+    fem_cells_per_patch,
     fem_contact_pressure,
     fem_label,
     fem_mu,
     fem_mu_at_least,
-    fem_nodes_per_patch,
     fem_psi,
 )
 from roughfriction.scripts.figures import new_axes
@@ -140,7 +140,7 @@ def psi_sweep(load: float, runs):
         **errors,
         "mu_fem_at_least": at_least,
         "fem_pressure_over_Sy": np.array([fem_contact_pressure(run) for run in runs]),
-        "fem_nodes_per_patch": np.array([fem_nodes_per_patch(run) for run in runs]),
+        "fem_cells_per_patch": np.array([fem_cells_per_patch(run) for run in runs]),
         "mu_multiscale": np.array([result.mu_s for result in theory]),
         "mu_cke": np.array([result.mu_cke for result in theory]),
         "cke_valid": np.array([result.cke_valid for result in theory]),
@@ -219,7 +219,7 @@ def load_sweep(name: str, runs):
            for key, values in errors.items()},
         "fem_pressure_over_Sy": np.concatenate([[fem_contact_pressure(run) for run in runs],
                                                 np.full(2 * len(loads), np.nan)]),
-        "fem_nodes_per_patch": np.concatenate([[fem_nodes_per_patch(run) for run in runs],
+        "fem_cells_per_patch": np.concatenate([[fem_cells_per_patch(run) for run in runs],
                                                np.full(2 * len(loads), np.nan)]),
         "note": np.array(fem_notes + [""] * len(loads) + notes),
     }

@@ -62,10 +62,10 @@ def fem_contact_pressure(run) -> float:
                                   * run.inputs["material"]["Sy"]))
 
 
-def fem_nodes_per_patch(run) -> float:
-    """Contact nodes per patch at inception (else at the end of the preload) [-]; the paper
-    reads fewer than 4 as inaccurate (its Fig. 10)."""
-    value = run.summary.get("nodes_per_patch")
+def fem_cells_per_patch(run) -> float:
+    """Contact area per patch in grid cells at inception (else at the end of the preload) [-];
+    fewer than 4 is the paper's inaccurate range (4 contact nodes per patch, its Fig. 10)."""
+    value = run.summary.get("cells_per_patch")
     return float("nan") if value is None else float(value)
 
 

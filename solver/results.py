@@ -98,8 +98,11 @@ def count_patches(contact: np.ndarray) -> int:
     return len({root(label) for label in range(1, count + 1)})
 
 
-#: The paper's reliability criterion: at least this many contact nodes per patch [-].
-RELIABLE_NODES_PER_PATCH = 4
+#: The paper's reliability criterion, at least 4 contact nodes per patch, for contact at
+#: integration points: at least this much contact area per patch, in grid cells h^2 (a node of
+#: the paper's node-to-surface contact stands for one cell; a single touching integration point
+#: already makes the 4 corners of its face contact nodes) [-].
+RELIABLE_CELLS_PER_PATCH = 4
 
 
 def nodes_per_patch(record: StepRecord | None) -> float | None:
@@ -107,6 +110,14 @@ def nodes_per_patch(record: StepRecord | None) -> float | None:
     if record is None or record.contact_patches == 0:
         return None
     return record.contact_nodes / record.contact_patches
+
+
+def cells_per_patch(record: StepRecord | None, grid_size: int | None) -> float | None:
+    """Contact area per contact patch of a step in grid cells, A_r N^2 / (A_n patches) [-];
+    None without a step, a grid size N or contact."""
+    if record is None or not grid_size or record.contact_patches == 0:
+        return None
+    return record.area_ratio * grid_size**2 / record.contact_patches
 
 
 @dataclass(frozen=True)
@@ -126,7 +137,7 @@ class FemResult:
     timings : dict
         Wall times of the phases [s].
     sizes : dict
-        Cells, nodes, reduced dofs, ranks, linear solver.
+        Cells, grid size N, layers, depth, reduced dofs, ranks, linear solver.
     """
 
     records: list
@@ -152,13 +163,15 @@ class FemResult:
     def summary(self) -> dict:
         """The JSON dict of the command line (SI units; None where not reached).
 
-        Contact nodes, patches and ``nodes_per_patch`` are those at inception, else at the end
-        of the preload; ``reliable``: ``nodes_per_patch`` >= :data:`RELIABLE_NODES_PER_PATCH`
-        (None without contact). ``cut_steps``: failed attempts before accepted steps.
+        Contact nodes, patches, ``nodes_per_patch`` and ``cells_per_patch`` are those at
+        inception, else at the end of the preload; ``reliable``: ``cells_per_patch`` >=
+        :data:`RELIABLE_CELLS_PER_PATCH` (None without contact). ``cut_steps``: failed attempts
+        before accepted steps.
         """
         preload, inception = self._last("normal"), self._last("tangential")
         sliding = self.mu_s is not None
-        per_patch = nodes_per_patch(inception if sliding else preload)
+        final = inception if sliding else preload
+        cells = cells_per_patch(final, self.sizes.get("grid_size"))
         return {
             "mu_s": self.mu_s,
             "Ft_max": inception.tangential_force if sliding else None,
@@ -170,8 +183,9 @@ class FemResult:
             "contact_nodes": (inception if sliding else preload).contact_nodes if preload else 0,
             "contact_patches": ((inception if sliding else preload).contact_patches
                                 if preload else 0),
-            "nodes_per_patch": per_patch,
-            "reliable": None if per_patch is None else per_patch >= RELIABLE_NODES_PER_PATCH,
+            "nodes_per_patch": nodes_per_patch(final),
+            "cells_per_patch": cells,
+            "reliable": None if cells is None else cells >= RELIABLE_CELLS_PER_PATCH,
             "steps": len(self.records),
             "cut_steps": sum(record.cuts for record in self.records),
             "newton_iterations": sum(record.newton_iterations for record in self.records),

@@ -195,6 +195,7 @@ def run_loads(case: FemCase, loads: Sequence[float], comm: MPI.Comm = MPI.COMM_W
     equilibrium = Equilibrium(solid, reduction, flat, case.solver, block.spacing)
     sizes = {
         "cells": block.mesh.topology.index_map(3).size_global,
+        "grid_size": block.n,
         "layers": block.num_layers,
         "depth_m": block.depth,
         "reduced_dofs": 3 * reduction.num_reduced_global,

@@ -23,9 +23,9 @@ Each run is classified (:func:`classify`):
   converged sliding run without mu_s; a failure without a message. The command exits 1 if
   there is one.
 
-Reliability: at least :data:`~solver.results.RELIABLE_NODES_PER_PATCH` contact nodes per
-contact patch (the paper's criterion), at inception (else at the end of the preload), as the
-run summary's ``nodes_per_patch`` and ``reliable``.
+Reliability: at least :data:`~solver.results.RELIABLE_CELLS_PER_PATCH` grid cells of contact
+area per contact patch (the paper's 4 contact nodes per patch), at inception (else at the end of
+the preload), as the run summary's ``cells_per_patch`` and ``reliable``.
 
 Output (rank 0): ``results/bench/stress.csv`` (a row per run) and ``results/bench/stress.md``
 (README-ready tables: the matrix, the outcome counts, the penalty and step-size table, the
@@ -44,7 +44,7 @@ from pathlib import Path
 from roughfriction.case import FemCase, Loading
 from roughfriction.errors import InputError
 from roughfriction.geometry.surface import Surface
-from roughfriction.solver.results import RELIABLE_NODES_PER_PATCH
+from roughfriction.solver.results import RELIABLE_CELLS_PER_PATCH
 from roughfriction.studies.batch import (
     compute_batch,
     csv_text,
@@ -258,8 +258,8 @@ def add_changes(rows: Sequence[dict]) -> None:
 COLUMNS = ("kind", "surface", "n", "load_star", "option", "factor", "outcome", "problems",
            "converged", "message", "note", "mu_s", "mu_s_change", "area_ratio_normal",
            "area_ratio_sliding", "junction_growth", "contact_nodes", "contact_patches",
-           "nodes_per_patch", "reliable", "steps", "cut_steps", "newton_iterations", "wall_s",
-           "peak_memory_gb", "ranks")
+           "nodes_per_patch", "cells_per_patch", "reliable", "steps", "cut_steps",
+           "newton_iterations", "wall_s", "peak_memory_gb", "ranks")
 UNRELIABLE_MARK = "†"
 
 
@@ -333,7 +333,7 @@ def run_name(row: dict) -> str:
 
 def reliable_region(rows: Sequence[dict], loads: Sequence[float]) -> list[str]:
     """Per load, the matrix and measured surfaces whose runs are reliable (converged, at least
-    the paper's contact nodes per patch)."""
+    the contact area per patch of the paper's 4 contact nodes)."""
     lines = []
     for load in loads:
         at_load = [row for row in rows if row["kind"] in ("matrix", "measured")
@@ -353,7 +353,7 @@ def stress_markdown(rows: Sequence[dict], n: int, loads: Sequence[float]) -> str
              "normal path shared with the smaller loads, converged on its own; FAILED: failed "
              "loudly "
              f"(reason below); {UNRELIABLE_MARK}: unreliable, fewer than "
-             f"{RELIABLE_NODES_PER_PATCH} contact nodes per patch.", ""]
+             f"{RELIABLE_CELLS_PER_PATCH} grid cells of contact area per patch.", ""]
     lines += matrix_table(rows, loads) + [""]
     lines += ["Outcomes of all " + str(len(rows)) + " runs: "
               + ", ".join(f"{counts[outcome]} {outcome}" for outcome in OUTCOMES) + ".", ""]
@@ -365,8 +365,8 @@ def stress_markdown(rows: Sequence[dict], n: int, loads: Sequence[float]) -> str
         lines += ["Failures:", ""] + [f"- {run_name(row)}: {row['outcome']}: "
                                       f"{row['problems'] or row['message']}" for row in failed]
         lines.append("")
-    lines += [f"Reliable region (converged, >= {RELIABLE_NODES_PER_PATCH} contact nodes per "
-              "patch):", ""] + reliable_region(rows, loads)
+    lines += [f"Reliable region (converged, >= {RELIABLE_CELLS_PER_PATCH} grid cells of contact "
+              "area per patch):", ""] + reliable_region(rows, loads)
     return "\n".join(lines) + "\n"
 
 

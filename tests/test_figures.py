@@ -215,7 +215,7 @@ def test_mu_vs_load_columns():
 
 
 def test_mu_vs_psi_reports_how_well_the_patches_are_resolved():
-    """F_n / (A_s S_y) and nodes per patch at inception, NaN without a contact area."""
+    """F_n / (A_s S_y) and contact cells per patch at inception, NaN without a contact area."""
     from roughfriction.scripts import fig22
 
     cases = fig22.fem_cases(8)[:18]  # on the figure's mesh, then on a 2x finer one
@@ -224,12 +224,12 @@ def test_mu_vs_psi_reports_how_well_the_patches_are_resolved():
         run.spacing = case.surface.spacing
         nominal = (case.surface.n * case.surface.spacing) ** 2
         run.summary.update(Fn=0.155 * nominal * 1e9, area_ratio_sliding=0.05,
-                           nodes_per_patch=2.5)
+                           cells_per_patch=2.5)
     runs[17].summary["area_ratio_sliding"] = None  # G9's plotted run: the finer one
     _, columns = fig22.make(runs)
     np.testing.assert_allclose(columns["fem_pressure_over_Sy"][:8], 0.155 / 0.05)
     assert np.isnan(columns["fem_pressure_over_Sy"][8])
-    assert list(columns["fem_nodes_per_patch"]) == [2.5] * 9
+    assert list(columns["fem_cells_per_patch"]) == [2.5] * 9
 
 
 def test_mu_vs_load_notes_a_failed_run_with_its_lower_bound(monkeypatch):

@@ -39,33 +39,49 @@ from roughfriction.studies.stress import (
 SPACING = 1e-6
 
 
-def record(phase, nodes=8, patches=2, slipping=0, cuts=0, fn=1.0, ft=0.0):
-    return StepRecord(phase, fn, ft, 0.0, 0.0, nodes / 64, nodes, patches, slipping, 0.0, 3, 0,
+def record(phase, nodes=8, patches=2, slipping=0, cuts=0, fn=1.0, ft=0.0, cells=None):
+    """A step on an 8 x 8 grid whose contact area is ``cells`` grid cells (default: one per
+    contact node, as in the paper's node-to-surface contact)."""
+    area_ratio = (nodes if cells is None else cells) / 64
+    return StepRecord(phase, fn, ft, 0.0, 0.0, area_ratio, nodes, patches, slipping, 0.0, 3, 0,
                       0.1, cuts)
 
 
-# --- the run summary: cut steps and reliability ----------------------------------------------
+#: Sizes of a run on the 8 x 8 grid of :func:`record`.
+GRID = {"grid_size": 8}
 
-def test_summary_counts_cut_steps_and_nodes_per_patch_at_inception():
+
+def test_summary_counts_cut_steps_and_contact_per_patch_at_inception():
     records = [record("normal", cuts=2), record("normal", nodes=9, patches=3),
                record("tangential", nodes=12, patches=4, slipping=5, cuts=1, ft=0.3),
                record("tangential", nodes=12, patches=4, slipping=12, ft=0.4)]
-    summary = FemResult(records, True, "", False, {}, {}).summary()
+    summary = FemResult(records, True, "", False, {}, GRID).summary()
     assert summary["cut_steps"] == 3
-    assert summary["nodes_per_patch"] == 3.0 and summary["reliable"] is False  # 12 / 4 < 4
+    assert summary["nodes_per_patch"] == 3.0 and summary["cells_per_patch"] == 3.0
+    assert summary["reliable"] is False  # 12 cells / 4 patches < 4
     assert summary["mu_s"] == pytest.approx(0.4)
+
+
+def test_a_patch_of_contact_nodes_with_little_area_is_not_reliable():
+    # one touching integration point makes its face's 4 corners contact nodes: 4 nodes per
+    # patch by the count, a quarter cell by the area
+    records = [record("normal", nodes=8, patches=2, cells=0.5)]
+    summary = FemResult(records, True, "", True, {}, GRID).summary()
+    assert summary["nodes_per_patch"] == 4.0 and summary["cells_per_patch"] == 0.25
+    assert summary["reliable"] is False
+    assert FemResult(records, True, "", True, {}, {}).summary()["reliable"] is None  # no grid
 
 
 def test_normal_only_and_unconverged_runs_report_the_preload_state():
     records = [record("normal", nodes=8, patches=2)]
-    assert FemResult(records, True, "", True, {}, {}).summary()["reliable"] is True  # 4 per patch
+    assert FemResult(records, True, "", True, {}, GRID).summary()["reliable"] is True  # 4 cells
     failed = FemResult(records + [record("tangential", nodes=20, patches=1)], False,
-                       "step limit", False, {}, {}).summary()
+                       "step limit", False, {}, GRID).summary()
     assert failed["mu_s"] is None and failed["nodes_per_patch"] == 4.0
-    empty = FemResult([], False, "preload did not converge", False, {}, {}).summary()
+    empty = FemResult([], False, "preload did not converge", False, {}, GRID).summary()
     assert empty["nodes_per_patch"] is None and empty["reliable"] is None
     assert empty["cut_steps"] == 0
-    no_contact = FemResult([record("normal", nodes=0, patches=0)], True, "", True, {}, {})
+    no_contact = FemResult([record("normal", nodes=0, patches=0)], True, "", True, {}, GRID)
     assert no_contact.summary()["reliable"] is None
 
 
