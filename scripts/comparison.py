@@ -26,6 +26,7 @@ from roughfriction.scripts.fem_views import (
     fem_psi,
 )
 from roughfriction.scripts.figures import new_axes
+from roughfriction.solver.results import RELIABLE_CELLS_PER_PATCH
 from roughfriction.studies.paper import (
     ERROR_BAR_LOADS,
     FEM_LOAD_SWEEP,
@@ -38,6 +39,8 @@ from roughfriction.studies.paper import (
 from roughfriction.studies.refinement import next_mesh, richardson
 
 STAND_INS = ("2L", "8L", "63M")
+#: Legend suffix of FEM points whose contact patches are not resolved.
+UNRESOLVED = f", hollow: < {RELIABLE_CELLS_PER_PATCH} cells of contact per patch (not resolved)"
 #: Largest relative difference of the meshed surface's psi from the surface's own [-].
 PSI_TOLERANCE = 0.03
 
@@ -75,15 +78,24 @@ def error_bars(coarse, fine) -> tuple[list, dict]:
 
 
 def draw_fem(ax, x, runs, error, label: str) -> tuple[np.ndarray, np.ndarray]:
-    """The FEM's mu_s at ``x`` (filled circles, with ``error`` bars where finite) and, for
-    runs that failed before sliding inception, the F_t/F_n they reached (hollow triangles:
-    mu_s is at least that); return both [-] (NaN where absent)."""
+    """The FEM's mu_s at ``x`` (circles, with ``error`` bars where finite: filled, hollow where
+    the run's contact patches hold fewer than ``RELIABLE_CELLS_PER_PATCH`` grid cells, the
+    paper's unresolved range) and, for runs that failed before sliding inception, the F_t/F_n
+    they reached (hollow triangles: mu_s is at least that); return both [-] (NaN where
+    absent)."""
+    x = np.asarray(x, dtype=float)
     mu_fem = np.array([fem_mu(run) for run in runs])
     at_least = np.array([fem_mu_at_least(run) for run in runs])
+    bars = np.where(np.isfinite(error), error, 0.0)
+    unresolved = np.array([fem_cells_per_patch(run) < RELIABLE_CELLS_PER_PATCH
+                           for run in runs]) & np.isfinite(mu_fem)
     if np.isfinite(error).any():
         label += " (on a 2x finer mesh where barred; bar: vs 1x)"
-    ax.errorbar(x, mu_fem, yerr=np.where(np.isfinite(error), error, 0.0), fmt="ko", ms=5,
-                capsize=3, label=label)
+    for points, style, text in ((~unresolved, {}, label),
+                                (unresolved, {"mfc": "none"}, label + UNRESOLVED)):
+        if points.any():
+            ax.errorbar(x[points], mu_fem[points], yerr=bars[points], fmt="ko", ms=5, capsize=3,
+                        label=text, **style)
     if np.isfinite(at_least).any():
         ax.plot(x, at_least, "k^", mfc="none", label="FEM failed before inception: $\\mu_s \\geq$")
     return mu_fem, at_least

@@ -226,7 +226,9 @@ class RigidFlat:
         u = self.interpolate(self.gather_nodes(displacement[self.nodes]))
         gap = flat_height - (self.heights + u[:, 2])
         trial_pressure = self.multiplier - eps * gap
-        in_contact = trial_pressure > 0.0 if active is None else active | (trial_pressure > 0.0)
+        in_contact = trial_pressure > 0.0
+        if active is not None:
+            in_contact |= active
         pressure = np.where(in_contact, trial_pressure, 0.0)
         relative = np.column_stack([flat_slide - u[:, 0], -u[:, 1]])  # w [m]
         trial = eps_t * (relative - self.stick_offset)

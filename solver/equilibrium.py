@@ -300,6 +300,11 @@ class Equilibrium:
         rounds, changes, limit = 0, np.inf, self.options.max_iterations
         reason = ""
 
+        def where(state: _Iterate) -> str:
+            return (f"residual {state.residual / normal_force:.1e} F_n, force error "
+                    f"{abs(state.force_error) / normal_force:.1e} F_n, last increment "
+                    f"{increment / self.spacing:.1e} h")
+
         def converged(state: _Iterate, factor: float = 1.0) -> bool:
             return (not predictor and state.residual <= factor * tolerance_force
                     and abs(state.force_error) <= factor * tolerance_force
@@ -340,13 +345,10 @@ class Equilibrium:
                     return NewtonReport(True, iteration, krylov, state.residual / normal_force,
                                         state.contact)
                 reason = (f"residual not halved in {STAGNATION_WINDOW} iterations (stick/slip "
-                          "or open/closed cycling)")
+                          f"or open/closed cycling; {where(state)})")
                 break
             if iteration == limit:
-                reason = (f"iteration limit {self.options.max_iterations} (residual "
-                          f"{state.residual / normal_force:.1e} F_n, force error "
-                          f"{abs(state.force_error) / normal_force:.1e} F_n, last increment "
-                          f"{increment / self.spacing:.1e} h)")
+                reason = f"iteration limit {self.options.max_iterations} ({where(state)})"
                 break
             if self.flat.count(state.contact.in_contact) == 0:
                 self.place_flat(normal_force)

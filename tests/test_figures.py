@@ -272,3 +272,24 @@ def test_fig14_with_fem_points_end_to_end_and_cached(tmp_path, monkeypatch):
     make_figure("fig14", tmp_path, n=8, runs_directory=runs)
     assert time.perf_counter() - started < 10.0
     assert (tmp_path / "fig14.png").exists()
+
+
+def test_mu_vs_psi_draws_points_with_unresolved_patches_hollow():
+    """A FEM point whose patches hold fewer than 4 grid cells of contact is drawn hollow under
+    its own legend entry; the others stay filled."""
+    from roughfriction.scripts import fig23
+    from roughfriction.scripts.comparison import UNRESOLVED
+
+    runs = fake_runs(fig23.fem_cases(8), [0.3] * 9)
+    for run, cells in zip(runs, [0.5, 3.9, *[4.0] * 7], strict=False):
+        run.summary["cells_per_patch"] = cells
+    fig, columns = fig23.make(runs)
+    handles, labels = fig.axes[0].get_legend_handles_labels()
+    hollow = handles[labels.index("FEM, N = 8" + UNRESOLVED)]
+    assert len(hollow.lines[0].get_xdata()) == 2 and hollow.lines[0].get_mfc() == "none"
+    filled = handles[labels.index("FEM, N = 8")]
+    assert len(filled.lines[0].get_xdata()) == 7
+    np.testing.assert_array_equal(columns["fem_cells_per_patch"][:2], [0.5, 3.9])
+    runs = fake_runs(fig23.fem_cases(8), [0.3] * 9)  # no cells per patch: not marked
+    labels = fig23.make(runs)[0].axes[0].get_legend_handles_labels()[1]
+    assert not any(label.endswith(UNRESOLVED) for label in labels)
