@@ -40,7 +40,7 @@ from roughfriction.studies.refinement import next_mesh, richardson
 
 STAND_INS = ("2L", "8L", "63M")
 #: Legend suffix of FEM points whose contact patches are not resolved.
-UNRESOLVED = f", hollow: < {RELIABLE_CELLS_PER_PATCH} cells of contact per patch (not resolved)"
+UNRESOLVED = f"\nhollow: < {RELIABLE_CELLS_PER_PATCH} cells of contact per patch (unresolved)"
 #: Largest relative difference of the meshed surface's psi from the surface's own [-].
 PSI_TOLERANCE = 0.03
 
