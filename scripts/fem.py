@@ -183,6 +183,7 @@ def run_fem(args) -> dict:
     if not args.refine:
         save_run(output, case, outcome, comm, extra=meshed)
         _check_converged(outcome, output)
+        _warn_unresolved(outcome.result.summary(), comm)
         return {**outcome.result.summary(), **meshed}
 
     coarse_output = output.with_name(f"{output.stem}_coarse{output.suffix}")
@@ -193,7 +194,29 @@ def run_fem(args) -> dict:
     estimate = discretisation_error(outcome.result.summary(), fine.result.summary())
     save_run(output, fine_case, fine, comm, extra={**estimate, **meshed})
     _check_converged(fine, output)
+    _warn_unresolved(fine.result.summary(), comm)
     return {**fine.result.summary(), **estimate, **meshed}
+
+
+def unresolved_warning(summary: dict) -> str | None:
+    """A one-line warning for a run whose contact patches hold fewer than
+    ``RELIABLE_CELLS_PER_PATCH`` grid cells of contact area each (summary ``reliable`` false),
+    else None."""
+    from roughfriction.solver.results import RELIABLE_CELLS_PER_PATCH
+
+    if summary.get("reliable") is not False:
+        return None
+    return (f"warning: the contact patches hold {summary['cells_per_patch']:.2g} grid cells of "
+            f"contact area each (< {RELIABLE_CELLS_PER_PATCH}): they are not resolved, and the "
+            "area and mu_s are mesh-dependent (docs/verification.md); refine the mesh "
+            "(--refine, a larger --n) or read the result as unreliable")
+
+
+def _warn_unresolved(summary: dict, comm) -> None:
+    """Print :func:`unresolved_warning` on stderr (rank 0) if there is one."""
+    warning = unresolved_warning(summary)
+    if warning and comm.rank == 0:
+        print(warning, file=sys.stderr)
 
 
 def discretisation_error(coarse: dict, fine: dict) -> dict:

@@ -12,12 +12,12 @@ from roughfriction.geometry.generate import builtin_surface  # noqa: E402
 from roughfriction.geometry.statistics import surface_statistics
 from roughfriction.geometry.surface import surface_on_fem_grid
 from roughfriction.material import Material
-from roughfriction.scripts.fem import main  # noqa: E402
+from roughfriction.scripts.fem import main, unresolved_warning  # noqa: E402
 from roughfriction.solver.results import count_patches  # noqa: E402
 
 JSON_KEYS = {"mu_s", "Ft_max", "Fn", "area_ratio_normal", "area_ratio_sliding",
-             "junction_growth", "contact_nodes", "contact_patches", "steps", "newton_iterations",
-             "wall_s", "converged", "ranks"}
+             "junction_growth", "contact_nodes", "contact_patches", "cells_per_patch", "reliable",
+             "steps", "newton_iterations", "wall_s", "converged", "ranks"}
 
 
 @pytest.fixture
@@ -33,9 +33,11 @@ def test_normal_only_json_and_hdf5(rough_file, tmp_path, capsys):
     code = main([str(rough_file), "--size", "7um", "--load", "0.3", "--normal-only", "--json",
                  "--output", str(output), "--elastic", "--xdmf", str(fields)])
     assert code == 0
-    summary = json.loads(capsys.readouterr().out)
+    captured = capsys.readouterr()
+    summary = json.loads(captured.out)
     assert JSON_KEYS <= summary.keys()
     assert summary["mu_s"] is None and summary["converged"] is True
+    assert ("warning: the contact patches" in captured.err) == (summary["reliable"] is False)
     assert summary["Fn"] == pytest.approx(0.3 * 1e9 * (8e-6) ** 2, rel=1e-6)
     assert 0 < summary["area_ratio_normal"] < 1
     with h5py.File(output) as h5:
@@ -163,3 +165,11 @@ def test_bad_windows(window, message, capsys):
     argv = ["G5", "--load", "0.3", *(["--n", "8"] if "--n" not in window else []), *window]
     assert main(argv) == 2
     assert message in capsys.readouterr().err
+
+
+def test_unresolved_patches_are_warned_about_in_one_line():
+    warning = unresolved_warning({"reliable": False, "cells_per_patch": 0.55})
+    assert warning.startswith("warning: the contact patches hold 0.55 grid cells")
+    assert "\n" not in warning and "< 4" in warning
+    for summary in ({"reliable": True, "cells_per_patch": 6.0}, {"reliable": None}):
+        assert unresolved_warning(summary) is None
