@@ -227,7 +227,10 @@ def test_default_runs_are_the_declared_matrix_and_variants():
     runs = default_runs(8)
     kinds = [r.kind for r in runs]
     assert kinds.count("matrix") == 36 and kinds.count("measured") == 4
-    assert kinds.count("penalty") == kinds.count("step") == 8
+    assert kinds.count("penalty") == kinds.count("step") == 8 and kinds.count("default") == 2
+    default = [r.case for r in runs if r.kind == "default"]
+    option = [r.case for r in runs if r.kind == "penalty"]
+    assert all(case.surface is option[0].surface for case in default + option)
     assert {r.case.surface.n for r in runs if r.case is not None} == {8}
     g1 = [r for r in runs if r.surface == "G1" and r.load_star == 1.86]
     assert len(g1) == 1  # near-complete contact is in the matrix
@@ -259,18 +262,22 @@ def synthetic_table():
     rows = [row("G1", 0.01, reliable=False, mu_s=0.9),
             row("G1", 0.155, CUT, cut_steps=2),
             row("G5", 0.01, FAILED, mu_s=None, message="preload did not converge beyond 0.5"),
-            row("G5", 0.155, mu_s=0.4),
+            row("G5", 0.155, mu_s=0.8),
             row("G5", 0.155, kind="penalty", factor=100.0, mu_s=0.41),
-            row("G5", 0.01, kind="penalty", factor=100.0, mu_s=0.3)]
+            row("G5", 0.01, kind="penalty", factor=100.0, mu_s=0.3),
+            # the option runs' own surface (the figures' window, not the matrix's re-gridded G5)
+            row("G5", 0.01, FAILED, kind="default", mu_s=None, message="preload stalled"),
+            row("G5", 0.155, kind="default", mu_s=0.4)]
     add_changes(rows)
     return rows
 
 
-def test_changes_are_against_the_matrix_run_of_the_same_surface_and_load():
+def test_changes_are_against_the_default_run_of_the_option_surface_and_load():
     rows = synthetic_table()
     assert rows[4]["mu_s_change"] == pytest.approx(0.41 / 0.4 - 1)
     assert rows[5]["mu_s_change"] is None  # its baseline failed
     assert rows[3]["mu_s_change"] is None  # a matrix run has no change
+    assert rows[7]["mu_s_change"] is None  # nor the default run
 
 
 def test_cells_show_mu_s_cuts_failures_and_unreliability():
@@ -289,17 +296,17 @@ def test_matrix_table_has_a_row_per_surface_and_a_column_per_load():
     assert lines[0] == "| surface | F* = 0.01 | F* = 0.155 | F* = 0.62 |"
     assert lines[1] == "|---|---|---|---|"
     assert lines[2] == f"| G1 | 0.900 {UNRELIABLE_MARK} | 0.500 (2 cuts) | – |"
-    assert lines[3] == "| G5 | FAILED | 0.400 | – |"
+    assert lines[3] == "| G5 | FAILED | 0.800 | – |"
     assert len(lines) == 4
 
 
 def test_markdown_counts_outcomes_lists_failures_and_the_reliable_region():
     rows = synthetic_table()
     counts = outcome_counts(rows)
-    assert [counts[o] for o in OUTCOMES] == [4, 1, 0, 1, 0]
+    assert [counts[o] for o in OUTCOMES] == [5, 1, 0, 2, 0]
     text = stress_markdown(rows, 32, (0.01, 0.155))
-    assert "Outcomes of all 6 runs: 4 converged directly, 1 converged after step cutting, " \
-           "0 converged alone, 1 failed loudly, 0 SILENT FAILURE." in text
+    assert "Outcomes of all 8 runs: 5 converged directly, 1 converged after step cutting, " \
+           "0 converged alone, 2 failed loudly, 0 SILENT FAILURE." in text
     assert "- G5 F*=0.01: failed loudly: preload did not converge beyond 0.5" in text
     assert "| defaults | x1 | FAILED | 0.400 |" in text
     assert "| penalty | x100 | 0.300 | 0.410 (+2.5 %) |" in text
@@ -329,6 +336,7 @@ def test_tiny_stress_matrix_end_to_end(tmp_path):
     spiky = surface.heights.copy()
     spiky[3, 3], spiky[3, 4] = 20 * SPACING, -20 * SPACING
     runs = (load_runs("matrix", "R", surface, (0.155, 0.62))
+            + [StressRun("default", "R", 0.155, 1.0, base)]
             + option_runs("penalty", base, (0.155,), (10.0,))
             + [StressRun("matrix", "limited", 0.155, case=limited),
                StressRun("matrix", "spiky", 0.155,
@@ -353,8 +361,8 @@ def test_tiny_stress_matrix_end_to_end(tmp_path):
     assert outcome_counts(rows)[SILENT] == 0
 
     written = list(csv.DictReader((tmp_path / "out" / "stress.csv").read_text().splitlines()))
-    assert len(written) == len(runs) == 6
-    assert written[3]["message"] == limit["message"]  # commas survive the CSV
+    assert len(written) == len(runs) == 7
+    assert written[4]["message"] == limit["message"]  # commas survive the CSV
     markdown = (tmp_path / "out" / "stress.md").read_text()
     assert "| R | " in markdown and "0 SILENT FAILURE" in markdown
     assert "- limited F*=0.155: failed loudly: step limit" in markdown
