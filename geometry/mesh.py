@@ -281,26 +281,53 @@ def _flat_hex_block(n: int, spacing: float, layer_z: np.ndarray, layer_stride: n
                     comm):
     """Flat structured hexahedral block [0, N h]^2 x [-H, 0], distributed over comm.
 
-    The nodes and hexahedra of :func:`structured_block` are written into a gmsh model as a
-    discrete volume (physical group 1) and read by dolfinx's gmsh reader. Returns the mesh.
+    The nodes and hexahedra of :func:`structured_block` (on rank 0) are handed to dolfinx with
+    :func:`slab_partitioner`, which gives every rank the columns of cells of one x-slab: the
+    same partition at every run (dolfinx 0.5's graph partitioner is not repeatable, and a
+    different partition changes the round-off of every solve). Returns the mesh.
     """
-    import gmsh
-    from dolfinx.io import gmshio
+    import ufl
+    from dolfinx import cpp
+    from dolfinx.cpp.io import perm_gmsh
+    from dolfinx.mesh import create_mesh
 
     if comm.rank == 0:
         grid, hexahedra = structured_block(n, layer_stride)
+        # x-major cell order: contiguous ranges of cells are x-slabs of whole columns
+        corner = grid[hexahedra[:, 0]]
+        hexahedra = hexahedra[np.lexsort((corner[:, 2], corner[:, 1], corner[:, 0]))]
         coordinates = np.column_stack([grid[:, :2] * spacing, layer_z[grid[:, 2]]])
-        gmsh.initialize()
-        gmsh.option.setNumber("General.Terminal", 0)
-        gmsh.model.add("block")
-        volume = gmsh.model.addDiscreteEntity(3)
-        gmsh.model.mesh.addNodes(3, volume, np.arange(1, len(grid) + 1), coordinates.ravel())
-        gmsh.model.mesh.addElementsByType(volume, 5, [], (hexahedra + 1).ravel())  # 8-node hex
-        gmsh.model.addPhysicalGroup(3, [volume], 1)
-    mesh, _, _ = gmshio.model_to_mesh(gmsh.model, comm, 0, gdim=3)
-    if comm.rank == 0:
-        gmsh.finalize()
-    return mesh
+        cells = hexahedra[:, perm_gmsh(cpp.mesh.CellType.hexahedron, 8)]
+    else:
+        coordinates, cells = np.empty((0, 3)), np.empty((0, 8), dtype=np.int64)
+    domain = ufl.Mesh(ufl.VectorElement("Lagrange", ufl.hexahedron, 1))
+    return create_mesh(comm, cells, coordinates, domain,
+                       partitioner=cpp.mesh.create_cell_partitioner(slab_partitioner))
+
+
+def slab_partitioner(comm, parts: int, graph, ghosting: bool):
+    """Destination ranks of the cells of a distributed dual graph: cell g of G goes to rank
+    g parts // G, and with ``ghosting`` also to the ranks of its neighbours (a graph
+    partitioner for ``dolfinx.cpp.mesh.create_cell_partitioner``)."""
+    from dolfinx.cpp.graph import AdjacencyList_int32
+
+    offsets = np.asarray(graph.offsets)
+    local = len(offsets) - 1
+    first = comm.exscan(local) or 0
+    total = comm.allreduce(local)
+    owner = ((first + np.arange(local, dtype=np.int64)) * parts // total).astype(np.int32)
+    if not ghosting:
+        return AdjacencyList_int32(owner)
+    neighbour_owner = (np.asarray(graph.array, dtype=np.int64) * parts // total).astype(np.int32)
+    destinations, counts = [np.empty(0, dtype=np.int32)], []
+    for cell in range(local):
+        others = np.unique(neighbour_owner[offsets[cell]:offsets[cell + 1]])
+        row = np.concatenate([[owner[cell]], others[others != owner[cell]]])
+        destinations.append(row)
+        counts.append(len(row))
+    offsets = np.concatenate([[0], np.cumsum(counts, dtype=np.int64)])
+    return AdjacencyList_int32(np.concatenate(destinations).astype(np.int32),
+                               offsets.astype(np.int32))
 
 
 def boundary_facet_tags(block: Block):

@@ -14,6 +14,7 @@ from roughfriction.geometry.mesh import (  # noqa: E402
     corner_jacobians,
     interpolation_masters,
     layer_layout,
+    slab_partitioner,
     structured_block,
 )
 
@@ -129,3 +130,30 @@ def test_inverted_cells_are_refused_with_a_layer_count_that_fixes_them():
 def test_bad_mesh_options(options):
     with pytest.raises(InputError):
         MeshOptions(**options)
+
+
+def test_slab_partitioner_sends_contiguous_cells_to_one_rank_and_ghosts_to_neighbours():
+    from dolfinx.cpp.graph import AdjacencyList_int64
+
+    # 4 cells in a row, each a neighbour of the next: 2 parts split them 2 + 2
+    graph = AdjacencyList_int64(np.array([1, 0, 2, 1, 3, 2], dtype=np.int64),
+                                np.array([0, 1, 3, 5, 6], dtype=np.int32))
+    plain = slab_partitioner(MPI.COMM_SELF, 2, graph, False)
+    assert list(plain.array) == [0, 0, 1, 1]
+    ghosted = slab_partitioner(MPI.COMM_SELF, 2, graph, True)
+    assert [list(ghosted.links(cell)) for cell in range(4)] == [[0], [0, 1], [1, 0], [1]]
+
+
+@pytest.mark.mpi
+def test_the_block_is_partitioned_the_same_way_at_every_build():
+    """dolfinx 0.5's graph partitioner is not repeatable; a different partition changes the
+    round-off of every solve and can flip a step cut (docs/benchmarks.md, version 0.4.2)."""
+    heights = np.random.default_rng(1).normal(0.0, 0.1e-6, (8, 8))
+    owned = []
+    for _ in range(3):
+        block = build_block(heights, 1e-6, MeshOptions(), MPI.COMM_WORLD)
+        cells = block.mesh.topology.index_map(3).size_local
+        nodes = block.mesh.geometry.dofmap.array.reshape(-1, 8)[:cells]
+        owned.append(np.sort(block.mesh.geometry.x[nodes].reshape(-1, 24), axis=0))
+    for other in owned[1:]:
+        np.testing.assert_array_equal(other, owned[0])
