@@ -23,10 +23,10 @@ bilinear interpolation in the same reduction u = P u_red that imposes periodicit
 displacement of the coarse face. Below the surface zone the field varies on the scale of the
 depth, not of h, so this removes more than half of the dofs at N >= 64 (numbers in the README).
 
-The flat structured block is written into a gmsh model (discrete entities: nodes, hexahedra and
-the tagged boundary quadrilaterals) and distributed by dolfinx's gmsh reader; the surface
-heights are then applied by moving node z-coordinates in place (the paper's moving-node method),
-and every cell's Jacobian is checked.
+The flat structured block is built on rank 0 and distributed by ``dolfinx.mesh.create_mesh`` in
+fixed x-slabs (``slab_partitioner``: the same partition at every run); the surface heights are
+then applied by moving node z-coordinates in place (the paper's moving-node method), and every
+cell's Jacobian is checked.
 """
 
 from __future__ import annotations
@@ -39,7 +39,7 @@ import numpy as np
 from roughfriction.case import MeshOptions
 from roughfriction.errors import InputError
 
-# gmsh, dolfinx and mpi4py are imported where the block is built, so that this module (and the
+# dolfinx and mpi4py are imported where the block is built, so that this module (and the
 # command line that builds it) import without them.
 
 #: Smallest accepted ratio of a moved cell's corner Jacobian to the flat cell's [-].
