@@ -318,16 +318,16 @@ def slab_partitioner(comm, parts: int, graph, ghosting: bool):
     owner = ((first + np.arange(local, dtype=np.int64)) * parts // total).astype(np.int32)
     if not ghosting:
         return AdjacencyList_int32(owner)
+    # (cell, rank) pairs: its owner first, then the other ranks owning a neighbour
     neighbour_owner = (np.asarray(graph.array, dtype=np.int64) * parts // total).astype(np.int32)
-    destinations, counts = [np.empty(0, dtype=np.int32)], []
-    for cell in range(local):
-        others = np.unique(neighbour_owner[offsets[cell]:offsets[cell + 1]])
-        row = np.concatenate([[owner[cell]], others[others != owner[cell]]])
-        destinations.append(row)
-        counts.append(len(row))
-    offsets = np.concatenate([[0], np.cumsum(counts, dtype=np.int64)])
-    return AdjacencyList_int32(np.concatenate(destinations).astype(np.int32),
-                               offsets.astype(np.int32))
+    cell = np.repeat(np.arange(local), np.diff(offsets))
+    ghost = np.unique(np.column_stack([cell, neighbour_owner])[neighbour_owner != owner[cell]],
+                      axis=0).reshape(-1, 2)
+    pairs = np.concatenate([np.column_stack([np.arange(local), owner]), ghost])
+    pairs = pairs[np.argsort(pairs[:, 0], kind="stable")]
+    counts = np.bincount(pairs[:, 0], minlength=local)
+    return AdjacencyList_int32(pairs[:, 1].astype(np.int32),
+                               np.concatenate([[0], np.cumsum(counts)]).astype(np.int32))
 
 
 def boundary_facet_tags(block: Block):

@@ -180,9 +180,8 @@ class FemResult:
             "area_ratio_sliding": inception.area_ratio if sliding else None,
             "junction_growth": (inception.area_ratio / preload.area_ratio - 1.0
                                 if sliding and preload.area_ratio > 0 else None),
-            "contact_nodes": (inception if sliding else preload).contact_nodes if preload else 0,
-            "contact_patches": ((inception if sliding else preload).contact_patches
-                                if preload else 0),
+            "contact_nodes": final.contact_nodes if preload else 0,
+            "contact_patches": final.contact_patches if preload else 0,
             "nodes_per_patch": nodes_per_patch(final),
             "cells_per_patch": cells,
             "reliable": None if cells is None else cells >= RELIABLE_CELLS_PER_PATCH,

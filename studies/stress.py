@@ -165,8 +165,7 @@ def default_runs(n: int) -> list[StressRun]:
     label = "ST400 " + Path(MEASURED_SURFACE).stem
     runs += load_runs("measured", label, surface, MATRIX_LOADS, error)
     base = fem_case(OPTION_SURFACE, OPTION_LOADS[0], n)  # the figures' surface, not the matrix's
-    runs += [StressRun("default", base.surface.name, load, 1.0,
-                       replace(base, loading=Loading(load))) for load in OPTION_LOADS]
+    runs += load_runs("default", base.surface.name, base.surface, OPTION_LOADS)
     runs += option_runs("penalty", base, OPTION_LOADS, PENALTY_FACTORS)
     runs += option_runs("step", base, OPTION_LOADS, STEP_FACTORS)
     return runs
