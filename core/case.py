@@ -42,8 +42,8 @@ class MeshOptions:
         to exp(-2 pi) ~ 0.2 %.
     """
 
-    blend_layers: int = 4
-    fine_layers: int = 4
+    blend_layers: int = 2
+    fine_layers: int = 2
     coarsen: bool = True
     growth: float = 1.4
     depth: float = 1.0

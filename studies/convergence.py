@@ -61,8 +61,8 @@ SIZES = (16, 32, 64, 128)
 BASE_N = 32
 #: Knobs changed one at a time from the defaults at BASE_N: (options table, option, values).
 VARIANTS = (
-    ("mesh", "blend_layers", (2, 8)),  # default 4
-    ("mesh", "fine_layers", (6, 10)),  # full-resolution layers, default 4
+    ("mesh", "blend_layers", (4, 8)),  # default 2
+    ("mesh", "fine_layers", (4, 8)),  # full-resolution layers, default 2
     ("mesh", "coarsen", (False,)),  # 2:1 coarsened levels below them, default on
     ("mesh", "depth", (0.5, 2.0)),  # base depth in periods, default 1
     ("solver", "integration", ("full",)),  # default "selective" (SRI)
