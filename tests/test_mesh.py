@@ -105,7 +105,7 @@ def test_block_nodes_sit_on_the_periodic_height_map():
 def test_facet_tags_cover_each_side():
     n = 8
     block = build_block(rough(n, 0.1 * SPACING), SPACING, MeshOptions(), MPI.COMM_WORLD)
-    assert set(block.layer_stride) == {1, 2}  # coarsened once
+    assert set(block.layer_stride) == {1, 2, 4}  # coarsened twice
     tags = boundary_facet_tags(block)
     counts = {tag: MPI.COMM_WORLD.allreduce(int(np.count_nonzero(tags.values == tag)))
               for tag in Boundary}

@@ -19,10 +19,15 @@ from roughfriction.solver.solid import Solid  # noqa: E402
 pytestmark = pytest.mark.fem
 
 
+#: 4 full-resolution layers over one 2:1 coarsened level (on 8 x 8 cells).
+ONE_LEVEL = MeshOptions(blend_layers=4, fine_layers=4)
+
+
 @pytest.fixture(scope="module")
 def block():
+    """An 8 x 8 block with one 2:1 coarsened level under 4 full-resolution layers."""
     heights = np.random.default_rng(0).normal(0.0, 0.1e-6, (8, 8))
-    return build_block(heights, 1e-6, MeshOptions(), MPI.COMM_WORLD)
+    return build_block(heights, 1e-6, ONE_LEVEL, MPI.COMM_WORLD)
 
 
 def assemble(solid):
@@ -112,7 +117,7 @@ def test_periodic_images_share_displacements_and_the_bottom_is_fixed(block):
     # above the bottom, a node layer's own dofs sit at the spacing of the cell layer below it
     assert reduction.num_reduced_global == sum((n // stride) ** 2 for stride in block.layer_stride)
     # the size estimate used to refuse oversized runs counts the same, without a mesh
-    cells, dofs = mesh_size(n, MeshOptions())
+    cells, dofs = mesh_size(n, ONE_LEVEL)
     assert (cells, dofs) == (block.mesh.topology.index_map(3).size_global,
                              3 * reduction.num_reduced_global)
 
