@@ -121,22 +121,31 @@ def layer_layout(n: int, spacing: float, options: MeshOptions) -> tuple[np.ndarr
     Returns
     -------
     layer_z : numpy.ndarray
-        Increasing z of the node layers [m]; the first entry is -H with
-        H >= options.depth * n * spacing, the last 0.
+        Increasing z of the node layers [m]; the first entry is -H, the last 0. With
+        ``coarsen``, H = options.depth * n * spacing (the deepest layer is cut to it, so the
+        block's bulk compliance does not depend on the layering); else H >= that.
     layer_stride : numpy.ndarray
         Lateral cell size of each cell layer, bottom to top [grid spacings].
     """
     fine = max(options.fine_layers, options.blend_layers)
     thicknesses, strides = [spacing] * fine, [1] * fine
     target = options.depth * n * spacing
-    while sum(thicknesses) < target * (1.0 - 1e-12):
+    while (remaining := target - sum(thicknesses)) > 1e-12 * target:
         stride = strides[-1]
-        if options.coarsen and n % (2 * stride) == 0 and 2 * stride <= n // 2:
+        if (options.coarsen and n % (2 * stride) == 0 and 2 * stride <= n // 2
+                and 2 * stride * spacing <= remaining * (1.0 + 1e-12)):
             thicknesses += [2 * stride * spacing] * COARSE_LAYERS_PER_LEVEL
             strides += [2 * stride] * COARSE_LAYERS_PER_LEVEL
         else:
             thicknesses.append(thicknesses[-1] * options.growth)
             strides.append(stride)
+        excess = sum(thicknesses) - target
+        if options.coarsen and excess > 0.0:  # end at the depth
+            if thicknesses[-1] - excess <= 1e-12 * target:
+                thicknesses.pop()
+                strides.pop()
+            else:
+                thicknesses[-1] -= excess
     layer_z = -np.concatenate([np.cumsum(thicknesses)[::-1], [0.0]])
     return layer_z, np.array(strides[::-1])
 

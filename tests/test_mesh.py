@@ -6,7 +6,6 @@ import pytest
 from mpi4py import MPI  # noqa: E402
 from roughfriction.errors import InputError  # noqa: E402
 from roughfriction.geometry.mesh import (  # noqa: E402
-    COARSE_LAYERS_PER_LEVEL,
     Boundary,
     MeshOptions,
     boundary_facet_tags,
@@ -38,8 +37,9 @@ def test_coarsened_levels_halve_the_lateral_resolution_in_cubic_layers():
     z, stride = layer_layout(32, SPACING, MeshOptions(blend_layers=4, fine_layers=6))
     thickness, stride = np.diff(z)[::-1] / SPACING, stride[::-1]  # top down
     np.testing.assert_array_equal(stride, [1] * 6 + [2, 2, 4, 4, 8, 8])
-    np.testing.assert_allclose(thickness, stride)  # cubes
-    assert -z[0] >= 32 * SPACING > -z[COARSE_LAYERS_PER_LEVEL]
+    np.testing.assert_allclose(thickness[:-1], stride[:-1])  # cubes ...
+    assert thickness[-1] == pytest.approx(6.0)  # ... but the deepest, cut to one period
+    assert -z[0] == pytest.approx(32 * SPACING, rel=1e-12)
     # N = 12 halves once (12 / 4 = 3 is odd), then grows at that lateral size
     _, stride = layer_layout(12, SPACING, MeshOptions(fine_layers=4))
     assert set(stride) == {1, 2, 4} and stride[0] == 4
@@ -105,7 +105,7 @@ def test_block_nodes_sit_on_the_periodic_height_map():
 def test_facet_tags_cover_each_side():
     n = 8
     block = build_block(rough(n, 0.1 * SPACING), SPACING, MeshOptions(), MPI.COMM_WORLD)
-    assert set(block.layer_stride) == {1, 2, 4}  # coarsened twice
+    assert set(block.layer_stride) == {1, 2}  # coarsened once
     tags = boundary_facet_tags(block)
     counts = {tag: MPI.COMM_WORLD.allreduce(int(np.count_nonzero(tags.values == tag)))
               for tag in Boundary}

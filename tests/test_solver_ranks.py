@@ -18,7 +18,7 @@ ROOT = Path(__file__).resolve().parent.parent
 # A 12 x 12 i.i.d. surface (rms 0.1 um at 1 um spacing) at F* = 0.3, the default solver options
 # (direct below their size limit), on 4 full-resolution layers: with the default 2 its second
 # preload step converges in exactly the iteration limit on 1 rank and is cut on 2 and 4, a load
-# path 3 % apart in mu_s (round-off deciding a marginal step, docs/benchmarks.md).
+# path 3.2 % apart in mu_s (round-off deciding a marginal step, docs/benchmarks.md).
 RUN = """
 import json
 import numpy as np
