@@ -183,19 +183,21 @@ def run_fem(args) -> dict:
     if not args.refine:
         save_run(output, case, outcome, comm, extra=meshed)
         _check_converged(outcome, output)
-        _warn_unresolved(outcome.result.summary(), comm)
-        return {**outcome.result.summary(), **meshed}
+        summary = outcome.result.summary()
+        _warn_unresolved(summary, comm)
+        return {**summary, **meshed}
 
     coarse_output = output.with_name(f"{output.stem}_coarse{output.suffix}")
     save_run(coarse_output, case, outcome, comm, extra=meshed)
     _check_converged(outcome, coarse_output)
     fine_case = next_mesh(case)
     fine = run(fine_case, comm)
-    estimate = discretisation_error(outcome.result.summary(), fine.result.summary())
+    summary = fine.result.summary()
+    estimate = discretisation_error(outcome.result.summary(), summary)
     save_run(output, fine_case, fine, comm, extra={**estimate, **meshed})
     _check_converged(fine, output)
-    _warn_unresolved(fine.result.summary(), comm)
-    return {**fine.result.summary(), **estimate, **meshed}
+    _warn_unresolved(summary, comm)
+    return {**summary, **estimate, **meshed}
 
 
 def unresolved_warning(summary: dict) -> str | None:

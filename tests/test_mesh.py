@@ -40,7 +40,7 @@ def test_coarsened_levels_halve_the_lateral_resolution_in_cubic_layers():
     np.testing.assert_allclose(thickness[:-1], stride[:-1])  # cubes ...
     assert thickness[-1] == pytest.approx(6.0)  # ... but the deepest, cut to one period
     assert -z[0] == pytest.approx(32 * SPACING, rel=1e-12)
-    # N = 12 halves once (12 / 4 = 3 is odd), then grows at that lateral size
+    # N = 12 halves twice (12 / 8 is not whole); the 4h level's second layer would pass the depth
     _, stride = layer_layout(12, SPACING, MeshOptions(fine_layers=4))
     assert set(stride) == {1, 2, 4} and stride[0] == 4
 
