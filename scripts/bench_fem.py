@@ -26,7 +26,8 @@ BENCH_DIR = Path("results/bench")
 HEADLINE_CASES = (("G5", 0.155), ("G5", 0.93), ("2L", 0.5), ("G1", 1.86))
 DEFAULT_SIZES = (32, 64, 128)
 COLUMNS = ("surface", "load_star", "n", "ranks", "cells", "reduced_dofs", "linear_solver",
-           "wall_s", "peak_memory_gb", "steps", "newton_iterations", "mu_s", "converged")
+           "wall_s", "peak_memory_gb", "steps", "newton_iterations", "cut_steps", "cut_iterations",
+           "mu_s", "converged")
 
 
 def parse_case(text: str) -> tuple[str, float]:
@@ -64,8 +65,9 @@ def run_size(surface: str, load: float, n: int, ranks: int) -> dict:
     row = {"surface": surface, "load_star": load, "n": n, "ranks": ranks}
     row.update({key: sizes.get(key) for key in ("cells", "reduced_dofs", "linear_solver",
                                                 "peak_memory_gb")})
-    row.update({key: summary[key] for key in ("wall_s", "steps", "newton_iterations", "mu_s",
-                                              "converged")})
+    row.update({key: summary.get(key) for key in ("wall_s", "steps", "newton_iterations",
+                                                  "cut_steps", "cut_iterations", "mu_s",
+                                                  "converged")})
     return row
 
 

@@ -40,13 +40,15 @@ class StepRecord:
     plastic_volume_fraction : float
         Volume fraction with plastic strain [-].
     newton_iterations : int
-        Newton iterations of the step [-].
+        Newton iterations of the step's accepted attempt [-].
     krylov_iterations : int
         Krylov iterations of the step [-].
     wall_s : float
         Wall time since the start of loading [s].
     cuts : int
         Failed attempts (step cuts) just before this step was accepted [-].
+    cut_iterations : int
+        Newton iterations of those failed attempts [-].
     """
 
     phase: str
@@ -63,6 +65,7 @@ class StepRecord:
     krylov_iterations: int
     wall_s: float
     cuts: int = 0
+    cut_iterations: int = 0
 
     def __str__(self) -> str:
         """One progress line."""
@@ -166,7 +169,8 @@ class FemResult:
         Contact nodes, patches, ``nodes_per_patch`` and ``cells_per_patch`` are those at
         inception, else at the end of the preload; ``reliable``: ``cells_per_patch`` >=
         :data:`RELIABLE_CELLS_PER_PATCH` (None without contact). ``cut_steps``: failed attempts
-        before accepted steps.
+        before accepted steps; ``newton_iterations``: all Newton iterations of the accepted
+        steps and of those failed attempts, ``cut_iterations`` of the failed attempts alone.
         """
         preload, inception = self._last("normal"), self._last("tangential")
         sliding = self.mu_s is not None
@@ -187,7 +191,9 @@ class FemResult:
             "reliable": None if cells is None else cells >= RELIABLE_CELLS_PER_PATCH,
             "steps": len(self.records),
             "cut_steps": sum(record.cuts for record in self.records),
-            "newton_iterations": sum(record.newton_iterations for record in self.records),
+            "newton_iterations": sum(record.newton_iterations + record.cut_iterations
+                                     for record in self.records),
+            "cut_iterations": sum(record.cut_iterations for record in self.records),
             "wall_s": self.timings.get("total_s"),
             "converged": self.converged,
             "ranks": self.sizes.get("ranks"),

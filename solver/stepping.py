@@ -96,6 +96,7 @@ class LoadPath:
         self.progress = progress
         self.records: list[StepRecord] = []
         self.attempts = 0
+        self.failed_iterations = 0  # Newton iterations of failed attempts since the last step
         self.contact: ContactResponse | None = None  # at the last converged step
         self.normal_force = 0.0  # preload reached [N]
         self._started = time.perf_counter()
@@ -110,6 +111,7 @@ class LoadPath:
         """Undo everything after :meth:`branch_point`: state, records and step count; the
         branch's wall time is not counted in later records."""
         state, num_records, self.contact, self.normal_force, self.attempts, taken = point
+        self.failed_iterations = 0
         self.equilibrium.resume(state)
         del self.records[num_records:]
         self._started += time.perf_counter() - taken
@@ -185,6 +187,7 @@ class LoadPath:
             return None
         report = self.equilibrium.solve(normal_force, slide, friction)
         if not report.converged:
+            self.failed_iterations += report.iterations
             self.equilibrium.restore()
             self.progress(StepCut("tangential" if friction else "normal", report.iterations,
                                   report.residual, report.reason))
@@ -213,7 +216,9 @@ class LoadPath:
             krylov_iterations=report.krylov_iterations,
             wall_s=time.perf_counter() - self._started,
             cuts=self.attempts - 1 - sum(record.cuts + 1 for record in self.records),
+            cut_iterations=self.failed_iterations,
         )
+        self.failed_iterations = 0
         self.records.append(record)
         self.progress(record)
         return record

@@ -240,7 +240,7 @@ class RunReporter:
             self.write(f"{self.prefix}: {str(record).strip()}")
             return
         self.steps += 1
-        self.iterations += record.newton_iterations
+        self.iterations += record.newton_iterations + record.cut_iterations
         ratio = (record.tangential_force / record.normal_force if record.normal_force
                  else float("nan"))
         self.write(f"{self.prefix}: step {self.steps} {record.phase} Ft/Fn={ratio:.4f} "

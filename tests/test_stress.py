@@ -151,13 +151,17 @@ def test_load_path_records_the_cuts_before_each_step_also_across_a_branch():
     assert str(cuts[0]).endswith("residual 1.00e-03 F_n): scripted failure 2")
     assert [type(event) for event in events].count(StepRecord) == len(path.records)
     assert [r.cuts for r in path.records] == [0, 2, 0, 0, 0, 0, 0]
+    # every scripted attempt takes 3 Newton iterations: a step carries those of its failed ones
+    assert [r.cut_iterations for r in path.records] == [0, 6, 0, 0, 0, 0, 0]
     # steps 3-7 start from the last two steps extrapolated (not step 2: step 1 began unloaded)
     assert len(equilibrium.extrapolations) == 5
     np.testing.assert_allclose(equilibrium.extrapolations[:3], 1.5)  # increments grow by 1.5
     branch = path.branch_point()
     assert path.slide().converged  # call 10 cut, 11 accepted at inception
     assert [r.cuts for r in path.records[7:]] == [1]
-    assert FemResult(list(path.records), True, "", False, {}, {}).summary()["cut_steps"] == 3
+    summary = FemResult(list(path.records), True, "", False, {}, {}).summary()
+    assert (summary["cut_steps"], summary["cut_iterations"]) == (3, 9)
+    assert summary["newton_iterations"] == 3 * path.attempts == 3 * equilibrium.calls
     path.return_to(branch)
     assert path.preload(target).converged  # call 12 accepted, 13 cut, 14 accepted, ...
     assert [r.cuts for r in path.records[:7]] == [0, 2, 0, 0, 0, 0, 0]
