@@ -65,9 +65,9 @@ def run_size(surface: str, load: float, n: int, ranks: int) -> dict:
     row = {"surface": surface, "load_star": load, "n": n, "ranks": ranks}
     row.update({key: sizes.get(key) for key in ("cells", "reduced_dofs", "linear_solver",
                                                 "peak_memory_gb")})
-    row.update({key: summary.get(key) for key in ("wall_s", "steps", "newton_iterations",
-                                                  "cut_steps", "cut_iterations", "mu_s",
-                                                  "converged")})
+    row.update({key: summary[key] for key in ("wall_s", "steps", "newton_iterations",
+                                              "cut_steps", "cut_iterations", "mu_s",
+                                              "converged")})
     return row
 
 
