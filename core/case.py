@@ -103,8 +103,8 @@ class SolverOptions:
         p_r = friction_ramp S_y [-]; 0 gives the paper's pure cap tau_c, with which a node at a
         patch edge can have no consistent contact state (see :mod:`solver.contact`).
     contact_points : int
-        Gauss points per side of each surface face where gap, pressure and friction are
-        evaluated (n x n per face) [-].
+        Gauss points per side of each surface face where gap and friction are evaluated
+        (n x n per face; even, so that each point lies in the tributary quarter of one node) [-].
     penetration_tolerance : float
         Augmented Lagrangian: Uzawa updates until no contact node penetrates deeper than this
         times the grid spacing [-].
@@ -169,6 +169,9 @@ class SolverOptions:
                      "contact_points"):
             if getattr(self, name) < 1:
                 raise InputError(f"solver option {name} must be >= 1, got {getattr(self, name)}")
+        if self.contact_points % 2:
+            raise InputError(f"solver option contact_points must be even, got "
+                             f"{self.contact_points}")
         if not (math.isfinite(self.friction_ramp) and 0.0 <= self.friction_ramp < 1.0):
             raise InputError(f"solver option friction_ramp must lie in [0, 1), got "
                              f"{self.friction_ramp}")

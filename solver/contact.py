@@ -1,37 +1,46 @@
-"""Contact and friction of the block's top faces against a rigid flat, at integration points.
+"""Contact and friction of the block's top faces against a rigid flat: one contact constraint
+per surface node, friction at integration points.
 
 The flat is horizontal at height h and slides by U in x. The contact surface is the top of the
 hexahedral mesh: N x N periodic faces of side h_grid, each the bilinear interpolant of its four
-corner nodes (the surface the FEM resolves). Inside every face, n x n Gauss points q (weights
-w_q, sum 1; shape functions N_a of the corners a) carry
+corner nodes (the surface the FEM resolves), with n x n Gauss points q per face (weights w_q,
+sum 1 per face; shape functions N_b of the corners b).
 
-* gap g_q = h - sum_a N_a (Z_a + u_z,a) and pressure p_q = <lambda_q - eps_N g_q>
-  (augmented Lagrangian: lambda_q = 0 is the pure penalty; after a converged Newton solve, Uzawa
-  sets lambda_q <- p_q and re-solves until no point penetrates deeper than a tolerance, so the
-  contact area does not depend on eps_N);
-* friction by a return map under the maximum shear stress criterion (the paper's tau_c): with
-  w_q = (U - u_x, -u_y) at q and the committed stick point w_s,q, the trial traction is
-  t* = eps_T (w_q - w_s,q); the point sticks if |t*| <= c_q, else slips with t = c_q t*/|t*|,
-  under the cap c_q = tau_c min(1, p_q / p_r) (ANSYS's min(mu p, tau_max) with mu = tau_c / p_r:
-  continuous in p, so a point at a patch edge has a consistent state).
+* **Normal contact, per node** (a mortar-type weighted gap): node a stands for its tributary
+  area, the quarter of each of its 4 faces nearest to it (the points of a face where N_a is
+  largest; n is even). Its weighted gap is the mean
+  gap over that area, g~_a = sum_q W_aq g_q with g_q = h - sum_b N_b(q) (Z_b + u_z,b) and
+  W_aq = w_q on a's tributary points (sum_q W_aq = 1), and its pressure is
+  p_a = <lambda_a - eps_N g~_a> (augmented Lagrangian: after a converged Newton solve, Uzawa
+  sets lambda_a <- p_a and re-solves until no node penetrates deeper than a tolerance, so the
+  contact does not depend on eps_N). The pressure field is p_a on a's tributary area; the
+  contact area is the tributary area of the nodes with p_a > 0. One constraint per node keeps
+  the multipliers unique, and the averaged (not collocated) gap is what makes the area
+  converge with the mesh (docs/verification.md).
+* **Friction, per point**, by a return map under the maximum shear stress criterion (the
+  paper's tau_c): with w_q = (U - u_x, -u_y) at q and the committed stick point w_s,q, the
+  trial traction is t* = eps_T (w_q - w_s,q); the point sticks if |t*| <= c_q, else slips with
+  t = c_q t*/|t*|, under the cap c_q = tau_c min(1, p_q / p_r) (ANSYS's min(mu p, tau_max) with
+  mu = tau_c / p_r: continuous in p, so a node at a patch edge has a consistent state), p_q the
+  pressure of the node whose tributary area holds q.
 
-Forces and tangent go to the corner nodes through the shape functions:
-f_a = h_grid^2 sum_q w_q N_a(q) (-t_q, p_q) and K_ab = h_grid^2 sum_q w_q N_a N_b D_q, with D_q the
-point's 3 x 3 tangent. The contact area is the measure of the faces' points with p_q > 0.
-A slipping point below p_r couples its traction to its pressure (dt/dp = tau_c / p_r along the
-slip): that part of D_q is not symmetric (``ContactResponse.symmetric``).
+Forces and tangent are the derivatives of the contact energy sum_a h_grid^2 psi(g~_a) and of
+the friction work at the points: f_b = h_grid^2 sum_q w_q N_b(q) (-t_q, p_q). A node's weighted
+gap involves its 9 neighbours, so the tangent couples a node to the 25 nodes within 2 grid
+steps (``NEIGHBOURS``). A slipping point below p_r couples its traction to its node's pressure
+(dt/dp = tau_c / p_r along the slip): that part is not symmetric (``ContactResponse.symmetric``).
 
 Stick before slide: at the first Newton iterate of a tangential step, points that stuck at the
 last converged step keep the uncapped stick law (tangential predictor). A point out of contact at
 the last converged step carries no shear in the step in which it touches and sticks where it is
 at its end. Frictionless steps (the preload) have t = 0, so sliding starts from full stick.
 
-Every rank evaluates all N^2 faces from the gathered surface displacements (cheap NumPy over
-N^2 n^2 points, identical on every rank) and adds the rows of the surface nodes it owns: the
-contact state is the same on any number of ranks.
+Every rank evaluates all N^2 nodes and faces from the gathered surface displacements (cheap
+sparse NumPy over N^2 n^2 points, identical on every rank) and adds the rows of the surface
+nodes it owns: the contact state is the same on any number of ranks.
 
-Signs: R = f_int - f_ext. The flat pushes with -p e_z and drags with t, so node a's residual
-gains f_a = sum (-t_x, -t_y, p) w N_a h_grid^2, and dR_z/dh = -eps_N (in contact).
+Signs: R = f_int - f_ext. The flat pushes with -p e_z and drags with t, so node b's residual
+gains f_b, and dR_z/dh = -eps_N sum (in contact).
 """
 
 from __future__ import annotations
@@ -43,8 +52,9 @@ from scipy import sparse
 
 #: Corner offsets (di, dj) of a face's nodes a = 0..3 from its node (i, j).
 CORNERS = np.array([(0, 0), (1, 0), (0, 1), (1, 1)])
-#: Neighbour offsets (di, dj) of a node's 9 couplings, in the order of ``node_stiffness``.
-NEIGHBOURS = np.array([(di, dj) for di in (-1, 0, 1) for dj in (-1, 0, 1)])
+#: Neighbour offsets (di, dj) of a node's 25 couplings (2 grid steps: a node's weighted gap
+#: involves its 9 neighbours), in the order of ``node_stiffness``.
+NEIGHBOURS = np.array([(di, dj) for di in range(-2, 3) for dj in range(-2, 3)])
 
 
 def face_quadrature(points_per_side: int) -> tuple[np.ndarray, np.ndarray]:
@@ -64,9 +74,15 @@ def face_quadrature(points_per_side: int) -> tuple[np.ndarray, np.ndarray]:
     return shape, np.outer(w, w).ravel()
 
 
+def nearest_corner(shape: np.ndarray) -> np.ndarray:
+    """The corner (0..3, ``CORNERS``) whose tributary quarter of the face holds each point: the
+    one with the largest N_a(q) (unique for an even number of points per side), (n^2,)."""
+    return np.argmax(shape, axis=1)
+
+
 @dataclass(frozen=True)
 class ContactResponse:
-    """Contact state at every integration point, and its nodal forces and tangent.
+    """Contact state at every node and integration point, and its nodal forces and tangent.
 
     Point arrays have shape (N^2 n^2,) (face-major); node arrays are indexed by the surface grid
     node i N + j.
@@ -75,8 +91,14 @@ class ContactResponse:
     ----------
     gap : numpy.ndarray
         g_q [m].
+    node_gap : numpy.ndarray
+        Weighted gap g~_a [m], shape (N^2,).
+    node_active : numpy.ndarray
+        Constraint active: lambda_a - eps_N g~_a > 0, or in the frozen set (bool, (N^2,)).
+    node_pressure : numpy.ndarray
+        p_a [Pa] (negative only for a frozen node pulled off the flat), shape (N^2,).
     in_contact : numpy.ndarray
-        p_q > 0 (or the frozen set), bool.
+        p_q > 0, bool.
     slipping : numpy.ndarray
         In contact and at the friction cap, bool.
     pressure : numpy.ndarray
@@ -88,7 +110,8 @@ class ContactResponse:
     node_force : numpy.ndarray
         Contact contribution to the nodal residual R [N], shape (N^2, 3).
     node_stiffness : numpy.ndarray
-        dR_a/du_b [N/m] for the 9 neighbours b of node a (``NEIGHBOURS``), shape (N^2, 9, 3, 3).
+        dR_a/du_b [N/m] for the 25 neighbours b of node a (``NEIGHBOURS``; a neighbour met twice
+        on a grid smaller than 5 holds its block once), shape (N^2, 25, 3, 3).
     node_height_derivative : numpy.ndarray
         dR_a/dh [N/m], shape (N^2, 3).
     symmetric : bool
@@ -96,6 +119,9 @@ class ContactResponse:
     """
 
     gap: np.ndarray
+    node_gap: np.ndarray
+    node_active: np.ndarray
+    node_pressure: np.ndarray
     in_contact: np.ndarray
     slipping: np.ndarray
     pressure: np.ndarray
@@ -162,23 +188,33 @@ class RigidFlat:
         self.corners = (((i[:, None] + CORNERS[:, 0]) % n) * n + (j[:, None] + CORNERS[:, 1]) % n)
         self.point_weight = np.tile(self.weight, n * n)  # w_q per point (face area units)
         self.heights = self.interpolate(self.node_heights)  # Z at the points [m]
-        # sparse sums: point -> node (weights w_q N_a) and (face, a, b) -> (node a, neighbour)
-        rows = np.repeat(self.corners, q, axis=0).reshape(n * n, q, 4)
-        self._to_nodes = sparse.csr_matrix(
-            ((self.weight[:, None] * self.shape)[None].repeat(n * n, 0).ravel(),
-             (rows.ravel(), np.repeat(np.arange(n * n * q), 4))), shape=(n * n, n * n * q))
-        offset = (CORNERS[None, :, :] - CORNERS[:, None, :] + 1) @ np.array([3, 1])  # (a, b)
-        pair_rows = self.corners[:, :, None] * 9 + offset[None]
-        self._pairs_to_nodes = sparse.csr_matrix(
-            (np.ones(pair_rows.size), (pair_rows.ravel(), np.arange(pair_rows.size))),
-            shape=(9 * n * n, pair_rows.size))
-        self._pair_shape = np.einsum("q,qa,qb->qab", self.weight, self.shape, self.shape)
-
+        # sparse maps between points and nodes: w_q N_a(q) (consistent nodal values), N_a(q)
+        # (interpolation) and W_aq (tributary means)
+        rows = np.repeat(self.corners, q, axis=0).ravel()
+        points = np.repeat(np.arange(n * n * q), 4)
         num_points = n * n * q
+        self._to_nodes = sparse.csr_matrix(
+            (np.tile((self.weight[:, None] * self.shape).ravel(), n * n), (rows, points)),
+            shape=(n * n, num_points))
+        self._interpolation = sparse.csr_matrix(
+            (np.tile(self.shape.ravel(), n * n), (points, rows)), shape=(num_points, n * n))
+        nearest = self.corners[:, nearest_corner(self.shape)].ravel()  # node of each point
+        self._tributary = sparse.csr_matrix(
+            (self.point_weight, (nearest, np.arange(num_points))), shape=(n * n, num_points))
+        # p_q = sum_a W_aq / w_q p_a, and dg~_a/du_z,b = -sum_q W_aq N_b(q)
+        self._point_pressure = (sparse.diags(1.0 / self.point_weight)
+                                @ self._tributary.T).tocsr()
+        self._gap_gradient = (self._tributary @ self._interpolation).tocsr()
+        i, j = np.divmod(np.arange(n * n), n)
+        self._neighbours = (((i[:, None] + NEIGHBOURS[:, 0]) % n) * n
+                            + (j[:, None] + NEIGHBOURS[:, 1]) % n)
+        self._first_neighbour = np.array(  # a neighbour met twice on a small grid counts once
+            [[node not in row[:k] for k, node in enumerate(row)] for row in self._neighbours[:1]])
+
         self.stick_offset = np.zeros((num_points, 2))
         self.slipped = np.zeros(num_points, dtype=bool)  # slipping at the last converged step
         self.anchored = np.zeros(num_points, dtype=bool)  # in contact at the last converged step
-        self.multiplier = np.zeros(num_points)  # lambda_q [Pa]
+        self.multiplier = np.zeros(n * n)  # lambda_a [Pa]
         self._committed_multiplier = self.multiplier
 
     # --- the surface grid ---------------------------------------------------------------------
@@ -203,7 +239,8 @@ class RigidFlat:
     def respond(self, displacement: np.ndarray, flat_height: float, flat_slide: float,
                 friction: bool, predictor: bool = False, active: np.ndarray | None = None
                 ) -> ContactResponse:
-        """Contact state of all integration points for a trial displacement and flat position.
+        """Contact state of all nodes and integration points for a trial displacement and flat
+        position.
 
         Parameters
         ----------
@@ -218,18 +255,21 @@ class RigidFlat:
         predictor : bool
             Stick law without cap for points that stuck at the last converged step.
         active : numpy.ndarray, optional
-            Frozen contact set of the points, bool: these carry lambda_q - eps_N g_q even if it
-            is negative; the others join when they penetrate (the set only grows: no cycling;
+            Frozen contact set of the nodes, bool (N^2,): these carry lambda_a - eps_N g~_a even
+            if it is negative; the others join when they penetrate (the set only grows: no cycling;
             the caller judges a converged iterate under the free law).
         """
         eps, eps_t = self.penalty, self.tangential_penalty
         u = self.interpolate(self.gather_nodes(displacement[self.nodes]))
         gap = flat_height - (self.heights + u[:, 2])
-        trial_pressure = self.multiplier - eps * gap
-        in_contact = trial_pressure > 0.0
+        node_gap = self._tributary @ gap
+        trial_pressure = self.multiplier - eps * node_gap
+        node_active = trial_pressure > 0.0
         if active is not None:
-            in_contact |= active
-        pressure = np.where(in_contact, trial_pressure, 0.0)
+            node_active |= active
+        node_pressure = np.where(node_active, trial_pressure, 0.0)
+        pressure = np.maximum(self._point_pressure @ node_pressure, 0.0)
+        in_contact = pressure > 0.0
         relative = np.column_stack([flat_slide - u[:, 0], -u[:, 1]])  # w [m]
         trial = eps_t * (relative - self.stick_offset)
         trial_norm = np.linalg.norm(trial, axis=1)
@@ -240,39 +280,55 @@ class RigidFlat:
         scale = np.where(slipping, cap / np.where(slipping, trial_norm, 1.0), 1.0)
         traction = np.where(frictional[:, None], scale[:, None] * trial, 0.0)
 
-        # point tangent D_q [Pa/m] and dR/dh per unit area
+        # tangent per unit area [Pa/m] as 3 x 3 component matrices over the grid nodes:
+        # shear by the point tangent, pressure by dp_q/du_z,b = eps (W^T/w) (W N)
         direction = trial / np.where(trial_norm > 0.0, trial_norm, 1.0)[:, None]
         tangential = np.eye(2) - np.where(slipping, 1.0, 0.0)[:, None, None] * np.einsum(
             "ni,nj->nij", direction, direction)
-        tangent = np.zeros((len(gap), 3, 3))
-        tangent[:, :2, :2] = np.where(frictional, eps_t * scale, 0.0)[:, None, None] * tangential
-        tangent[:, 2, 2] = np.where(in_contact, eps, 0.0)
-        # below p_r a slipping point's traction c(p) n follows p = lambda - eps g:
-        # dR_xy/du_z = -eps dc/dp n, dR_xy/dh = +eps dc/dp n
-        coupling = (eps * self.cap_slope(pressure, slipping))[:, None] * direction
-        tangent[:, :2, 2] = -coupling
-        height_derivative = np.column_stack([coupling, np.where(in_contact, -eps, 0.0)])
+        shear = np.where(frictional, eps_t * scale, 0.0)[:, None, None] * tangential
+        stiffness = eps * node_active
+        pressure_gradient = self._point_pressure @ sparse.diags(stiffness) @ self._gap_gradient
+        pressure_height = -(self._point_pressure @ stiffness)  # dp_q/dh
+        # below p_r a slipping point's traction c(p) n follows its pressure
+        coupling = self.cap_slope(pressure, slipping)[:, None] * direction  # dc/dp n [-]
+        blocks = np.empty((3, 3), dtype=object)
+        for i in range(2):
+            for j in range(2):
+                blocks[i, j] = self._to_nodes @ sparse.diags(shear[:, i, j]) @ self._interpolation
+            blocks[i, 2] = -(self._to_nodes @ sparse.diags(coupling[:, i]) @ pressure_gradient)
+            blocks[2, i] = None
+        blocks[2, 2] = self._to_nodes @ pressure_gradient
+        height_derivative = np.column_stack([-coupling * pressure_height[:, None],
+                                             pressure_height])
         point_force = np.column_stack([-traction, pressure])
         return ContactResponse(
             gap=gap,
+            node_gap=node_gap,
+            node_active=node_active,
+            node_pressure=node_pressure,
             in_contact=in_contact,
             slipping=slipping,
             pressure=pressure,
             traction=traction,
             stick_offset=relative - traction / eps_t,
             node_force=self.to_nodes(point_force),
-            node_stiffness=self._node_tangent(tangent),
+            node_stiffness=self._node_tangent(blocks),
             node_height_derivative=self.to_nodes(height_derivative),
             symmetric=not np.any(coupling),
         )
 
-    def _node_tangent(self, tangent: np.ndarray) -> np.ndarray:
-        """K_ab = h_grid^2 sum_q w_q N_a N_b D_q summed into (node a, neighbour b) blocks,
-        shape (N^2, 9, 3, 3), from the point tangents D_q (P, 3, 3) [Pa/m]."""
-        n2, q = self.grid_size**2, len(self.weight)
-        pairs = np.einsum("qab,fqij->fabij", self._pair_shape, tangent.reshape(n2, q, 3, 3))
-        return (self._pairs_to_nodes @ pairs.reshape(-1, 9)).reshape(n2, 9, 3, 3) \
-            * self.spacing**2
+    def _node_tangent(self, blocks: np.ndarray) -> np.ndarray:
+        """K_ab [N/m] of every node a and its 25 neighbours b (``NEIGHBOURS``), shape
+        (N^2, 25, 3, 3), from the 3 x 3 component matrices (N^2 x N^2 sparse, per unit area
+        [Pa/m]; None for zero) in ``blocks``."""
+        n2 = self.grid_size**2
+        rows = np.repeat(np.arange(n2), len(NEIGHBOURS))
+        tangent = np.zeros((n2, len(NEIGHBOURS), 3, 3))
+        for (i, j), matrix in np.ndenumerate(blocks):
+            if matrix is not None:
+                values = sparse.csr_matrix(matrix)[rows, self._neighbours.ravel()]
+                tangent[:, :, i, j] = np.asarray(values).reshape(n2, -1)
+        return tangent * self._first_neighbour[:, :, None, None] * self.spacing**2
 
     def shear_cap(self, pressure: np.ndarray) -> np.ndarray:
         """c = tau_c min(1, p / p_r) [Pa] (tau_c if p_r = 0) at the pressures ``pressure``
@@ -312,14 +368,14 @@ class RigidFlat:
         self.multiplier = self._committed_multiplier
 
     def augment(self, response: ContactResponse) -> None:
-        """Uzawa update of the multipliers: lambda_q <- p_q."""
-        self.multiplier = response.pressure.copy()
+        """Uzawa update of the multipliers: lambda_a <- p_a."""
+        self.multiplier = np.maximum(response.node_pressure, 0.0)
 
     # --- measures -------------------------------------------------------------------------------
 
     def penetration(self, response: ContactResponse) -> float:
-        """Deepest penetration -g_q of a point in contact [m]."""
-        return float(np.max(-response.gap[response.in_contact], initial=0.0))
+        """Deepest penetration -g~_a of a node in contact [m]."""
+        return float(np.max(-response.node_gap[response.node_active], initial=0.0))
 
     def integrate(self, point_values: np.ndarray) -> float:
         """sum_q w_q v_q h_grid^2 over all faces: the integral of a point density [x m^2]."""
@@ -338,21 +394,20 @@ class RigidFlat:
         return float(self.point_weight @ mask) / self.grid_size**2
 
     def count(self, mask: np.ndarray) -> int:
-        """Number of integration points where ``mask`` holds [-]."""
+        """Number of points (or nodes) where ``mask`` holds [-]."""
         return int(np.count_nonzero(mask))
 
     def node_maps(self, response: ContactResponse) -> dict:
         """N x N nodal maps ([i, j] at x = i h, y = j h) of a contact state.
 
-        "contact": a point in contact in the node's faces (bool); "slip": in contact and every
-        contact point of its faces slipping (bool); "pressure" and "shear_x": the consistent
-        nodal forces over h_grid^2 [Pa]; "contact_fraction": per face (i, j), the fraction of
-        its area in contact [-].
+        "contact": p_a > 0 (bool); "slip": in contact and every point of its tributary area
+        slipping (bool); "pressure" and "shear_x": the consistent nodal forces over h_grid^2
+        [Pa]; "contact_fraction": per face (i, j), the fraction of its area in contact [-].
         """
         n = self.grid_size
         weight = self.point_weight
-        touching = self._to_nodes @ response.in_contact.astype(float)
-        sticking = self._to_nodes @ (response.in_contact & ~response.slipping).astype(float)
+        touching = self._tributary @ response.in_contact.astype(float)
+        sticking = self._tributary @ (response.in_contact & ~response.slipping).astype(float)
         area = self.spacing**2
         fraction = (weight * response.in_contact).reshape(n * n, -1).sum(axis=1)
         return {
@@ -367,10 +422,10 @@ class RigidFlat:
                         elastic_modulus: float) -> float:
         """A first guess of the flat height h [m] carrying ``force`` [N] from ``displacement``.
 
-        Every integration point is a spring k, the penalty eps a_q in series with the solid
-        under it, taken as a uniformly loaded square of area a_q on a half-space (mean
-        deflection 0.95 p sqrt(a_q) / E', Timoshenko & Goodier), and sum k <Z_q + u_z,q - h> =
-        force is solved exactly (the penalty alone would put the whole load on the highest
+        Every node is a spring k, the penalty eps a in series with the solid under it, taken as
+        a uniformly loaded square of its tributary area a = h_grid^2 on a half-space (mean
+        deflection 0.95 p sqrt(a) / E', Timoshenko & Goodier), and sum k <-g~_a(h)> = force is
+        solved exactly (the penalty alone would put the whole load on the highest
         point, from where Newton overshoots into deep penetration).
 
         Parameters
@@ -382,11 +437,11 @@ class RigidFlat:
         elastic_modulus : float
             E' = E / (1 - nu^2) [Pa].
         """
-        tops = self.heights + self.interpolate(
-            self.gather_nodes(displacement[self.nodes, 2]))
-        area = self.point_weight * self.spacing**2
-        stiffness = 1.0 / (1.0 / (self.penalty * area)
-                           + 0.95 / (elastic_modulus * np.sqrt(area)))
+        tops = self._tributary @ (self.heights + self.interpolate(
+            self.gather_nodes(displacement[self.nodes, 2])))  # h - g~_a [m]
+        area = self.spacing**2
+        stiffness = np.full(len(tops), 1.0 / (1.0 / (self.penalty * area)
+                                              + 0.95 / (elastic_modulus * np.sqrt(area))))
         order = np.argsort(tops)[::-1]
         tops, stiffness = tops[order], stiffness[order]
         # with the m highest points in contact: h = (sum k z - force) / sum k

@@ -43,9 +43,9 @@ STAGNATION_WINDOW = 4
 #: not cut (Newton tolerances 1e-4 and 1e-8 F_n give the same mu_s to 0.06 %) [-].
 RESIDUAL_FLOOR = 10.0
 #: Newton iterations with the contact law free; then the contact set is frozen until the
-#: iterate converges: its points stay in contact, and points that penetrate join it (the set
+#: iterate converges: its nodes stay in contact, and nodes that penetrate join it (the set
 #: only grows: no open/closed cycling, and a flat carried by a few yielding peaks cannot sink
-#: through open points it does not see); the iterate is accepted if it also meets the
+#: through open nodes it does not see); the iterate is accepted if it also meets the
 #: tolerances under the law itself, else the set is re-frozen at the law's set there (a primal
 #: active-set strategy). The slip set is not frozen: a frozen slipping point below the cap has
 #: a traction direction that jumps with a tiny trial vector [-].
@@ -151,6 +151,7 @@ class Equilibrium:
         self._elastic_tangent.assemble()
         self._tangent_full = self._elastic_tangent.duplicate(copy=True)
         self._residual_full = fem_petsc.create_vector(solid.residual_forms[0])
+        self._solid_tangent = None  # P^T K P, created at the first assembly
         self.tangent = None  # P^T K P + contact, created at the first assembly
         self._symmetric = True  # the tangent, at its last assembly
         self.residual = reduction.create_reduced_vector()
@@ -167,7 +168,7 @@ class Equilibrium:
         self._near_nullspace = (reduction.near_nullspace(solid.V.tabulate_dof_coordinates())
                                 if method == "iterative" else None)
 
-        self._active = None  # frozen contact set of the integration points, or None
+        self._active = None  # frozen contact set of the surface nodes, or None
         # Reduced rows of the owned surface nodes and the reduced nodes of their 9 neighbours
         # on the periodic surface grid (the columns of the contact tangent).
         n = flat.grid_size
@@ -215,9 +216,11 @@ class Equilibrium:
 
     def assemble_tangent(self, contact: ContactResponse) -> None:
         """K = P^T (K_elastic + K_plastic) P plus the contact's 3 x 3 blocks of each surface node
-        and its 9 neighbours, at the iterate of the last :meth:`assemble` (whose ``contact``
-        response is passed). The contact blocks are set in place (MatAXPY of a separate
-        contact matrix leaks memory in PETSc 3.18).
+        and its 25 neighbours, at the iterate of the last :meth:`assemble` (whose ``contact``
+        response is passed). The contact reaches 2 surface nodes, beyond the solid's couplings,
+        so K is a matrix with both patterns, preallocated once (:meth:`_system_matrix`), into
+        which P^T K P is added (MatAXPY into a preallocated subset pattern; adding a separate
+        contact matrix of another pattern leaks memory in PETSc 3.18).
         """
         self._elastic_tangent.copy(self._tangent_full,
                                    structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
@@ -225,16 +228,48 @@ class Equilibrium:
         if plastic is not None:
             fem_petsc.assemble_matrix(self._tangent_full, plastic)
         self._tangent_full.assemble()
-        self.tangent = self.reduction.reduce_matrix(self._tangent_full, self.tangent)
-        if self._near_nullspace is not None:
-            self.tangent.setNearNullSpace(self._near_nullspace)
-        # one block row (3 x 27 values, row-major) per owned surface node
+        self._solid_tangent = self.reduction.reduce_matrix(self._tangent_full,
+                                                           self._solid_tangent)
+        if self.tangent is None:
+            self.tangent = self._system_matrix(self._solid_tangent)
+            if self._near_nullspace is not None:
+                self.tangent.setNearNullSpace(self._near_nullspace)
+        self.tangent.zeroEntries()
+        self.tangent.axpy(1.0, self._solid_tangent,
+                          structure=PETSc.Mat.Structure.SUBSET_NONZERO_PATTERN)
+        # one block row (3 x 75 values, row-major) per owned surface node
         blocks = contact.node_stiffness[self.flat.owned_grid].transpose(0, 2, 1, 3)
         self.tangent.setValuesBlockedRCV(self._contact_rows[:, :1] // 3, self._contact_columns,
                                          blocks.reshape(len(blocks), -1),
                                          addv=PETSc.InsertMode.ADD_VALUES)
         self.tangent.assemble()
         self._symmetric = self.comm.allreduce(contact.symmetric, op=MPI.LAND)
+
+    def _system_matrix(self, solid: PETSc.Mat) -> PETSc.Mat:
+        """A zero matrix with the nonzeros of ``solid`` (P^T K P) and of the contact blocks: the
+        rows of each owned surface node gain the columns of its 25 neighbours."""
+        start, end = solid.getOwnershipRange()
+        row_pointer, columns, _ = solid.getValuesCSR()
+        rows = np.repeat(np.arange(end - start), np.diff(row_pointer))
+        contact_rows = self._contact_rows - start  # (m, 3)
+        if np.any((contact_rows < 0) | (contact_rows >= end - start)):
+            raise RuntimeError("a surface node's reduced rows are owned by another rank")
+        contact_columns = (3 * self._contact_columns[:, :, None] + np.arange(3)).reshape(
+            len(contact_rows), 1, -1)  # (m, 1, 75)
+        rows = np.concatenate([rows, np.broadcast_to(
+            contact_rows[:, :, None], (len(contact_rows), 3, contact_columns.shape[2])).ravel()])
+        columns = np.concatenate([columns, np.broadcast_to(
+            contact_columns, (len(contact_rows), 3, contact_columns.shape[2])).ravel()])
+        size = solid.getSize()[1]
+        pairs = np.unique(rows.astype(np.int64) * size + columns)
+        rows, columns = np.divmod(pairs, size)
+        row_pointer = np.concatenate([[0], np.cumsum(np.bincount(rows, minlength=end - start))])
+        matrix = PETSc.Mat().createAIJ(
+            solid.getSizes(), bsize=solid.getBlockSize(), comm=self.comm,
+            csr=(row_pointer.astype(PETSc.IntType), columns.astype(PETSc.IntType),
+                 np.zeros(len(columns))))
+        matrix.setOption(PETSc.Mat.Option.NEW_NONZERO_ALLOCATION_ERR, True)
+        return matrix
 
     # --- Newton -----------------------------------------------------------------------------
 
@@ -319,12 +354,12 @@ class Equilibrium:
                 state = self._evaluate(normal_force, flat_slide, friction, predictor=False)
                 if not converged(state):
                     previous, changes = changes, self.flat.count(
-                        state.contact.in_contact != frozen)
+                        state.contact.node_active != frozen)
                     if changes >= previous or rounds == MAX_ROUNDS:
                         reason = (f"contact set cycling ({changes} points change state after "
                                   f"{rounds} frozen round(s))")
                         break
-                    self._active = state.contact.in_contact
+                    self._active = state.contact.node_active
                     rounds += 1
                     limit = iteration + self.options.max_iterations
                     history.clear()
@@ -350,13 +385,13 @@ class Equilibrium:
             if iteration == limit:
                 reason = f"iteration limit {self.options.max_iterations} ({where(state)})"
                 break
-            if self.flat.count(state.contact.in_contact) == 0:
+            if self.flat.count(state.contact.node_active) == 0:
                 self.place_flat(normal_force)
                 state = self._evaluate(normal_force, flat_slide, friction, predictor)
                 increment = np.inf
                 continue
             if iteration == FREEZE_AFTER and self._active is None:
-                self._active = state.contact.in_contact
+                self._active = state.contact.node_active
                 rounds = 1
                 history.clear()  # the frozen problem's residuals start their own record
             self.assemble_tangent(state.contact)
@@ -372,7 +407,7 @@ class Equilibrium:
             increment = step * self._x1.norm(PETSc.NormType.NORM_INFINITY)
             predictor = False
             if self._active is not None:  # points that entered contact stay in this round
-                self._active = state.contact.in_contact
+                self._active = state.contact.node_active
         self._active = None
         return NewtonReport(False, iteration, krylov, state.residual / normal_force, state.contact,
                             reason)
@@ -437,8 +472,9 @@ class Equilibrium:
         keep every finished run's memory. The model is unusable afterwards."""
         committed = [self._committed[0]] + ([self._previous[0]] if self._previous else [])
         for item in (self.displacement, *committed, self._elastic_tangent, self._tangent_full,
-                     self._residual_full, self.tangent, self.residual, self._height_column,
-                     self._force_row, self._x1, self._x2, self._near_nullspace):
+                     self._residual_full, self._solid_tangent, self.tangent, self.residual,
+                     self._height_column, self._force_row, self._x1, self._x2,
+                     self._near_nullspace):
             if item is not None:
                 item.destroy()
         self.linear_solver.destroy()

@@ -9,7 +9,7 @@ from roughfriction.geometry.generate import self_affine_surface
 from roughfriction.geometry.surface import Surface
 from roughfriction.material import Material
 from roughfriction.studies.peer import bem_area_limit, bem_contact, perimeter_corrected_area
-from roughfriction.studies.refinement import refined_case, richardson
+from roughfriction.studies.refinement import refined_case
 
 E_STAR = 2.2e11  # [Pa]
 WAVELENGTH = 1e-4  # [m]
@@ -58,9 +58,8 @@ def test_perimeter_correction_brings_a_pixelated_disc_to_its_area():
 def test_fem_contact_area_converges_to_the_bem_limit():
     """Elastic frictionless normal contact of a self-affine 16 x 16 surface (H = 0.7, shortest
     wavelength 4 h, RMS slope 0.05) at F* = 0.3, on the surface's grid and a 2x finer mesh of
-    the same bilinear surface. Measured (docs/verification.md): about -47 % and -23 % from the BEM
-    limit (the trilinear solid is too stiff at the grid scale), first-order extrapolation within
-    a few per cent."""
+    the same bilinear surface. Measured (docs/verification.md): +14.6 % and -1.8 % from the BEM
+    limit (the contact at integration points of versions up to 0.5 gave -49 % and -25 %)."""
     spacing, material, load = 1e-6, Material(), 0.3
     heights = self_affine_surface(1.0, 0.7, n=16, spacing=spacing, seed=1,
                                   short_cutoff=4 * spacing).heights
@@ -78,5 +77,5 @@ def test_fem_contact_area_converges_to_the_bem_limit():
         assert result.converged
         areas.append(result.records[-1].area_ratio)
     errors = [abs(area / limit.extrapolated - 1.0) for area in areas]
-    assert errors[1] < errors[0]
-    assert richardson(areas).extrapolated == pytest.approx(limit.extrapolated, rel=0.05)
+    assert errors[1] < errors[0] < 0.2
+    assert errors[1] < 0.05

@@ -1,9 +1,11 @@
-"""Contact and friction of the surface faces against the rigid flat, at integration points
-(NumPy, one rank)."""
+"""Contact of the surface nodes (weighted gaps over their tributary areas) and friction at
+integration points against the rigid flat (NumPy, one rank)."""
 
 import numpy as np
 import pytest
 from mpi4py import MPI
+from roughfriction.case import SolverOptions
+from roughfriction.errors import InputError
 from roughfriction.solver.contact import NEIGHBOURS, RigidFlat, face_quadrature
 
 TAU_C = 577e6  # [Pa]
@@ -70,35 +72,51 @@ def test_uniform_pressure_gives_consistent_nodal_forces_and_full_area():
     assert flat.area_ratio(response.in_contact) == 1.0
 
 
-def test_contact_area_is_the_measure_of_the_points_in_contact():
-    """One raised node: its four faces touch where the bilinear surface is above the flat."""
+@pytest.mark.parametrize("points", [2, 4, 8])
+def test_a_raised_node_alone_touches_with_its_tributary_area(points):
+    """One raised node, the flat at half its height: the node's weighted gap is the flat's
+    height minus the mean height of its tributary quarters (0.622 of the node's height with 2 x 2
+    points, (3/4)^2 in the limit of many), so it touches; its neighbours' quarters lie lower and
+    stay open. The contact area is the node's tributary area h^2."""
     heights = np.zeros((N, N))
     heights[1, 1] = 1e-8
-    height = 0.5e-8  # the flat cuts the four faces at half the node's height
-    for points in (2, 4, 8):
-        flat = flat_over(heights, points=points)
-        response = flat.respond(still(), height, 0.0, friction=False)
-        # exact: around the node, the area of {(1 - x)(1 - y) > 1/2} in each of 4 unit faces
-        exact = 4 * (0.5 - np.log(2) / 2) / N**2
-        assert flat.area_ratio(response.in_contact) == pytest.approx(exact, rel=2.0 / points)
-        maps = flat.node_maps(response)
-        assert maps["contact"].sum() == 9  # the raised node and its 8 neighbours share faces
-        assert maps["contact_fraction"].sum() * SPACING**2 == pytest.approx(
-            flat.area_ratio(response.in_contact) * (N * SPACING) ** 2)
+    flat = flat_over(heights, points=points)
+    response = flat.respond(still(), 0.5e-8, 0.0, friction=False)
+    shape, weight = face_quadrature(points)
+    mean = 4 * np.sum(weight * shape[:, 0] * (np.argmax(shape, axis=1) == 0))
+    assert -response.node_gap[5] == pytest.approx(mean * 1e-8 - 0.5e-8)
+    assert mean == pytest.approx(0.5625, abs=0.06)
+    np.testing.assert_array_equal(np.flatnonzero(response.node_active), [5])
+    assert flat.area_ratio(response.in_contact) == pytest.approx(1.0 / N**2)
+    maps = flat.node_maps(response)
+    assert maps["contact"].sum() == 1 and maps["contact"][1, 1]
+    assert maps["contact_fraction"].sum() == pytest.approx(1.0)
+    assert flat.normal_force(response) == pytest.approx(
+        PENALTY * (mean * 1e-8 - 0.5e-8) * SPACING**2)
 
 
-def test_a_frozen_set_keeps_its_points_and_takes_in_penetrating_ones():
-    """With a frozen contact set its points stay in contact even in tension, and points
-    outside it join as soon as they penetrate (the set can only grow within a round)."""
+def test_odd_points_per_side_are_rejected():
+    """With an odd number of points per side a point would lie on a tributary boundary."""
+    with pytest.raises(InputError, match="even"):
+        SolverOptions(contact_points=3)
+
+
+def test_a_frozen_set_keeps_its_nodes_and_takes_in_penetrating_ones():
+    """With a frozen contact set its nodes stay active even in tension (their points carry no
+    pressure), and nodes outside it join as soon as they penetrate (the set can only grow
+    within a round)."""
     heights = np.zeros((N, N))
     heights[1, 1] = 1e-8
     flat = flat_over(heights)
     free = flat.respond(still(), 0.5e-8, 0.0, friction=False)
-    frozen = np.zeros_like(free.in_contact)
-    frozen[0] = True  # a point of face (0, 0), below the flat: in tension
+    frozen = np.zeros_like(free.node_active)
+    frozen[0] = True  # node (0, 0), below the flat: in tension
     response = flat.respond(still(), 0.5e-8, 0.0, friction=False, active=frozen)
-    np.testing.assert_array_equal(response.in_contact, free.in_contact | frozen)
-    assert free.in_contact.any() and not free.in_contact[0] and response.pressure[0] < 0.0
+    np.testing.assert_array_equal(response.node_active, free.node_active | frozen)
+    assert free.node_active.any() and not free.node_active[0]
+    assert response.node_pressure[0] < 0.0
+    np.testing.assert_array_equal(response.in_contact, free.in_contact)
+    assert flat.normal_force(response) == pytest.approx(flat.normal_force(free))
 
 
 @pytest.mark.parametrize("pressure", [2.5e6, 1e9])
@@ -167,12 +185,13 @@ def test_open_newly_touching_and_frictionless_points_carry_no_shear():
     newly[:4] = True  # face (0, 0) touches in this step
     flat.anchored[newly] = False
     slide = 0.5 * TAU_C / PENALTY
-    response = flat.respond(still(), -1e9 / PENALTY, slide, friction=True)
+    # nodes j = 0, 1 have a lowered neighbour: their tributary mean lies 1.25 nm below them
+    response = flat.respond(still(), -5e9 / PENALTY, slide, friction=True)
     faces = response.in_contact.reshape(N, N, -1)
     assert faces[:, 0].all() and not faces[:, 2].any()
     np.testing.assert_allclose(response.traction[~response.in_contact | newly], 0.0)
     assert (response.traction[response.in_contact & ~newly, 0] > 0).all()
-    frictionless = flat.respond(still(), -1e9 / PENALTY, slide, friction=False)
+    frictionless = flat.respond(still(), -5e9 / PENALTY, slide, friction=False)
     np.testing.assert_allclose(frictionless.traction, 0.0)
 
 
@@ -180,9 +199,10 @@ def test_open_newly_touching_and_frictionless_points_carry_no_shear():
 @pytest.mark.parametrize("pressure, slide", [(2.5e6, 3.0), (1e9, 3.0), (1e9, 0.5), (2.5e6, 0.5)])
 def test_nodal_tangent_and_height_derivative_match_finite_differences(pressure, slide,
                                                                       tangential):
-    """dR_a/du_b over the 9 neighbours of a node and dR/dh, for points slipping below and above
-    p_r and sticking, on a rough surface with a random displacement (so that points differ),
-    against central differences of the nodal residual."""
+    """dR_a/du_b over the 25 neighbours of a node (on this 4 x 4 grid some offsets meet the
+    same node, whose block is held once) and dR/dh, for points slipping below and above p_r and
+    sticking, on a rough surface with a random displacement (so that points differ), against
+    central differences of the nodal residual."""
     rng = np.random.default_rng(1)
     heights = rng.normal(size=(N, N)) * 1e-3 * pressure / PENALTY
     flat = anchored(flat_over(heights, tangential=tangential))
@@ -198,26 +218,27 @@ def test_nodal_tangent_and_height_derivative_match_finite_differences(pressure, 
 
     row = 5  # node (1, 1)
     i, j = divmod(row, N)
-    for k, (di, dj) in enumerate(NEIGHBOURS):
-        column_node = ((i + di) % N) * N + (j + dj) % N
+    columns = np.array([((i + di) % N) * N + (j + dj) % N for di, dj in NEIGHBOURS])
+    assert len(set(columns)) == N * N  # every node is within 2 steps on this grid
+    for column_node in set(columns):
+        blocks = response.node_stiffness[row, columns == column_node].sum(axis=0)
         for c in range(3):
             e = np.zeros_like(u0)
             e[column_node, c] = step
             column = (force(u0 + e)[row] - force(u0 - e)[row]) / (2 * step)
-            np.testing.assert_allclose(response.node_stiffness[row, k, :, c], column,
-                                       rtol=1e-5, atol=1e-7 * scale)
+            np.testing.assert_allclose(blocks[:, c], column, rtol=1e-5, atol=1e-7 * scale)
     column = (force(u0, height + step) - force(u0, height - step)) / (2 * step)
     np.testing.assert_allclose(response.node_height_derivative, column, rtol=1e-5,
                                atol=1e-7 * scale)
 
 
-def test_touching_height_carries_the_force_with_springs_at_the_points():
+def test_touching_height_carries_the_force_with_springs_at_the_nodes():
     heights = np.zeros((N, N))
     heights[1, 1] = 1e-8
     flat = flat_over(heights)
     force = 1e-3  # [N]
     h = flat.touching_height(still(), force, 2.2e11)
-    assert 0.0 < h < 1e-8
-    area = flat.point_weight * SPACING**2
-    stiffness = 1.0 / (1.0 / (PENALTY * area) + 0.95 / (2.2e11 * np.sqrt(area)))
-    assert np.sum(stiffness * np.maximum(flat.heights - h, 0.0)) == pytest.approx(force)
+    tops = -flat.respond(still(), 0.0, 0.0, friction=False).node_gap  # h - g~_a [m]
+    assert 0.0 < h < tops.max()
+    stiffness = 1.0 / (1.0 / (PENALTY * SPACING**2) + 0.95 / (2.2e11 * SPACING))
+    assert np.sum(stiffness * np.maximum(tops - h, 0.0)) == pytest.approx(force)

@@ -1,4 +1,4 @@
-"""Newton loop of solver.equilibrium: active-set rounds of the contact set, convergence."""
+"""Newton loop of solver.equilibrium: convergence of its steps."""
 
 import dolfinx  # noqa: E402, F401  (an install without the FEM fails here)
 import numpy as np
@@ -7,43 +7,10 @@ from mpi4py import MPI  # noqa: E402
 from petsc4py import PETSc  # noqa: E402
 from roughfriction.case import FemCase, Loading, SolverOptions  # noqa: E402
 from roughfriction.geometry.surface import Surface  # noqa: E402
-from roughfriction.solver.equilibrium import MAX_ROUNDS, Equilibrium  # noqa: E402
+from roughfriction.solver.equilibrium import Equilibrium  # noqa: E402
 from roughfriction.solver.run import run  # noqa: E402
 
 pytestmark = pytest.mark.fem
-
-MAX_ITERATIONS = 8
-
-
-def newton_reports(rounds: int, monkeypatch) -> list:
-    """Reports of every Newton solve of a random 16 x 16 surface preloaded to F* = 1 from one
-    first increment, ``MAX_ITERATIONS`` per round and at most ``rounds`` rounds."""
-    monkeypatch.setattr("roughfriction.solver.equilibrium.MAX_ROUNDS", rounds)
-    reports = []
-    newton = Equilibrium._newton
-
-    def recorded(self, *args, **kwargs):
-        reports.append(newton(self, *args, **kwargs))
-        return reports[-1]
-
-    monkeypatch.setattr(Equilibrium, "_newton", recorded)
-    heights = np.random.default_rng(7).normal(0.0, 1e-7, (16, 16))
-    case = FemCase(Surface(heights, 1e-6, "test"), Loading(1.0, normal_only=True),
-                   solver=SolverOptions(normal_increments=1, max_iterations=MAX_ITERATIONS))
-    result = run(case, MPI.COMM_WORLD, progress=lambda record: None).result
-    assert result.converged, result.message
-    return reports
-
-
-def test_contact_set_rounds_have_their_own_iteration_budget(monkeypatch):
-    """A solve whose frozen contact set converged but differs from the law's set starts a new
-    round with a fresh budget of max_iterations: some solves converge after more iterations
-    than one budget, which a single round cannot (it is cut there)."""
-    single = newton_reports(1, monkeypatch)
-    assert all(r.iterations <= MAX_ITERATIONS for r in single if r.converged)
-    rounds = newton_reports(MAX_ROUNDS, monkeypatch)
-    assert any(r.iterations > MAX_ITERATIONS for r in rounds if r.converged)
-    assert all(r.iterations <= MAX_ROUNDS * MAX_ITERATIONS for r in rounds)
 
 
 def test_a_converged_step_is_one_newton_increment_from_the_solution(monkeypatch):

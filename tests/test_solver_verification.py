@@ -240,19 +240,20 @@ def assert_at_inception(result, min_contact_nodes: int) -> None:
     assert last.slipping_nodes == last.contact_nodes > min_contact_nodes
 
 
-def test_halving_or_doubling_the_ramp_pressure_changes_mu_s_by_less_than_one_percent():
-    """G5 on 16 x 16 at F* = 0.62 (~200 contact nodes) slides to inception with p_r = 0.0125,
-    0.025 (default) and 0.05 S_y, and mu_s moves by less than 1 % (measured: +0.28 %, -0.57 %;
-    the pure cap converges here too, 0.18097 against 0.18029: it fails by contact-set cycling
-    on the 32 x 32 bench rows, see docs/method.md)."""
+def test_the_ramp_pressure_leaves_mu_s_unchanged_up_to_twice_the_default():
+    """G5 on 16 x 16 at F* = 0.62 (~130 contact nodes) slides to inception with the paper's pure
+    cap (p_r = 0) and p_r = 0.0125, 0.025 (default) and 0.05 S_y to the same mu_s (measured:
+    equal to 16 digits; every contact node carries more than 0.05 S_y at inception), while a
+    ramp of 0.2 S_y lowers it (measured: -1.7 %), so the ramp is a regularisation the result
+    does not see."""
     mu = {}
-    for ramp in (0.0125, 0.025, 0.05):
+    for ramp in (0.0, 0.0125, 0.025, 0.05, 0.2):
         result = g5_16_alone(0.62, ramp)
-        assert_at_inception(result, 150)
+        assert_at_inception(result, 100)
         mu[ramp] = result.mu_s
-    assert mu[0.0125] == pytest.approx(mu[0.025], rel=0.01)
-    assert mu[0.05] == pytest.approx(mu[0.025], rel=0.01)
-    assert mu[0.0125] != mu[0.025]  # the ramp acts on this surface
+    for ramp in (0.0, 0.0125, 0.05):
+        assert mu[ramp] == pytest.approx(mu[0.025], rel=1e-9)
+    assert mu[0.2] < 0.99 * mu[0.025]  # the ramp acts when it reaches the contact pressures
 
 
 def test_newton_accepts_a_residual_floor_near_inception():
@@ -260,7 +261,7 @@ def test_newton_accepts_a_residual_floor_near_inception():
     1.03-1.2e-6 F_n, just above the 1e-6 F_n tolerance, and the run ended with 205 of 209
     nodes slipping once the slide increment could not be cut further. A floor within
     RESIDUAL_FLOOR times the tolerance is accepted, and the run reaches inception."""
-    assert_at_inception(g5_16_alone(0.62, 0.05), 150)
+    assert_at_inception(g5_16_alone(0.62, 0.05), 100)
 
 
 # --- shared normal loading path ---------------------------------------------------------------
