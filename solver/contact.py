@@ -444,7 +444,7 @@ class RigidFlat:
                                               + 0.95 / (elastic_modulus * np.sqrt(area))))
         order = np.argsort(tops)[::-1]
         tops, stiffness = tops[order], stiffness[order]
-        # with the m highest points in contact: h = (sum k z - force) / sum k
+        # with the m highest nodes in contact: h = (sum k z - force) / sum k
         heights = (np.cumsum(stiffness * tops) - force) / np.cumsum(stiffness)
         below_next = np.append(heights[:-1] >= tops[1:], True)
         return float(heights[np.argmax(below_next)])
