@@ -102,7 +102,7 @@ class ContactResponse:
     slipping : numpy.ndarray
         In contact and at the friction cap, bool.
     pressure : numpy.ndarray
-        p_q [Pa].
+        p_q [Pa], the pressure of the point's node (negative only under a frozen node).
     traction : numpy.ndarray
         Tangential traction of the flat, t_q [Pa], shape (P, 2).
     stick_offset : numpy.ndarray
@@ -268,7 +268,7 @@ class RigidFlat:
         if active is not None:
             node_active |= active
         node_pressure = np.where(node_active, trial_pressure, 0.0)
-        pressure = np.maximum(self._point_pressure @ node_pressure, 0.0)
+        pressure = self._point_pressure @ node_pressure  # < 0 only under a frozen node
         in_contact = pressure > 0.0
         relative = np.column_stack([flat_slide - u[:, 0], -u[:, 1]])  # w [m]
         trial = eps_t * (relative - self.stick_offset)
@@ -369,7 +369,7 @@ class RigidFlat:
 
     def augment(self, response: ContactResponse) -> None:
         """Uzawa update of the multipliers: lambda_a <- p_a."""
-        self.multiplier = np.maximum(response.node_pressure, 0.0)
+        self.multiplier = response.node_pressure.copy()
 
     # --- measures -------------------------------------------------------------------------------
 

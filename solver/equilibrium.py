@@ -169,7 +169,7 @@ class Equilibrium:
                                 if method == "iterative" else None)
 
         self._active = None  # frozen contact set of the surface nodes, or None
-        # Reduced rows of the owned surface nodes and the reduced nodes of their 9 neighbours
+        # Reduced rows of the owned surface nodes and the reduced nodes of their 25 neighbours
         # on the periodic surface grid (the columns of the contact tangent).
         n = flat.grid_size
         node_reduced = flat.gather_nodes(reduction.reduced_node[flat.nodes])
@@ -356,7 +356,7 @@ class Equilibrium:
                     previous, changes = changes, self.flat.count(
                         state.contact.node_active != frozen)
                     if changes >= previous or rounds == MAX_ROUNDS:
-                        reason = (f"contact set cycling ({changes} points change state after "
+                        reason = (f"contact set cycling ({changes} nodes change state after "
                                   f"{rounds} frozen round(s))")
                         break
                     self._active = state.contact.node_active
@@ -406,7 +406,7 @@ class Equilibrium:
                                             flat_slide, friction, full_step=predictor)
             increment = step * self._x1.norm(PETSc.NormType.NORM_INFINITY)
             predictor = False
-            if self._active is not None:  # points that entered contact stay in this round
+            if self._active is not None:  # nodes that entered contact stay in this round
                 self._active = state.contact.node_active
         self._active = None
         return NewtonReport(False, iteration, krylov, state.residual / normal_force, state.contact,
