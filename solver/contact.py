@@ -45,7 +45,9 @@ gains f_b, and dR_z/dh = -eps_N sum (in contact).
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 from scipy import sparse
@@ -109,9 +111,8 @@ class ContactResponse:
         w_s to commit [m], shape (P, 2).
     node_force : numpy.ndarray
         Contact contribution to the nodal residual R [N], shape (N^2, 3).
-    node_stiffness : numpy.ndarray
-        dR_a/du_b [N/m] for the 25 neighbours b of node a (``NEIGHBOURS``; a neighbour met twice
-        on a grid smaller than 5 holds its block once), shape (N^2, 25, 3, 3).
+    stiffness : callable
+        Computes :attr:`node_stiffness` (once, when a linear solve needs it).
     node_height_derivative : numpy.ndarray
         dR_a/dh [N/m], shape (N^2, 3).
     symmetric : bool
@@ -128,9 +129,15 @@ class ContactResponse:
     traction: np.ndarray
     stick_offset: np.ndarray
     node_force: np.ndarray
-    node_stiffness: np.ndarray
+    stiffness: Callable[[], np.ndarray]
     node_height_derivative: np.ndarray
     symmetric: bool
+
+    @cached_property
+    def node_stiffness(self) -> np.ndarray:
+        """dR_a/du_b [N/m] for the 25 neighbours b of node a (``NEIGHBOURS``; a neighbour met
+        twice on a grid smaller than 5 holds its block once), shape (N^2, 25, 3, 3)."""
+        return self.stiffness()
 
 
 class RigidFlat:
@@ -280,26 +287,33 @@ class RigidFlat:
         scale = np.where(slipping, cap / np.where(slipping, trial_norm, 1.0), 1.0)
         traction = np.where(frictional[:, None], scale[:, None] * trial, 0.0)
 
-        # tangent per unit area [Pa/m] as 3 x 3 component matrices over the grid nodes:
-        # shear by the point tangent, pressure by dp_q/du_z,b = eps (W^T/w) (W N)
         direction = trial / np.where(trial_norm > 0.0, trial_norm, 1.0)[:, None]
-        tangential = np.eye(2) - np.where(slipping, 1.0, 0.0)[:, None, None] * np.einsum(
-            "ni,nj->nij", direction, direction)
-        shear = np.where(frictional, eps_t * scale, 0.0)[:, None, None] * tangential
         stiffness = eps * node_active
-        pressure_gradient = self._point_pressure @ sparse.diags(stiffness) @ self._gap_gradient
         pressure_height = -(self._point_pressure @ stiffness)  # dp_q/dh
         # below p_r a slipping point's traction c(p) n follows its pressure
         coupling = self.cap_slope(pressure, slipping)[:, None] * direction  # dc/dp n [-]
-        blocks = np.empty((3, 3), dtype=object)
-        for i in range(2):
-            for j in range(2):
-                blocks[i, j] = self._to_nodes @ sparse.diags(shear[:, i, j]) @ self._interpolation
-            blocks[i, 2] = -(self._to_nodes @ sparse.diags(coupling[:, i]) @ pressure_gradient)
-            blocks[2, i] = None
-        blocks[2, 2] = self._to_nodes @ pressure_gradient
         height_derivative = np.column_stack([-coupling * pressure_height[:, None],
                                              pressure_height])
+
+        def node_stiffness() -> np.ndarray:
+            # tangent per unit area [Pa/m] as 3 x 3 component matrices over the grid nodes:
+            # shear by the point tangent, pressure by dp_q/du_z,b = eps (W^T/w) (W N)
+            tangential = np.eye(2) - np.where(slipping, 1.0, 0.0)[:, None, None] * np.einsum(
+                "ni,nj->nij", direction, direction)
+            shear = np.where(frictional, eps_t * scale, 0.0)[:, None, None] * tangential
+            pressure_gradient = (self._point_pressure @ sparse.diags(stiffness)
+                                 @ self._gap_gradient)
+            blocks = np.empty((3, 3), dtype=object)
+            for i in range(2):
+                for j in range(2):
+                    blocks[i, j] = (self._to_nodes @ sparse.diags(shear[:, i, j])
+                                    @ self._interpolation)
+                blocks[i, 2] = -(self._to_nodes @ sparse.diags(coupling[:, i])
+                                 @ pressure_gradient)
+                blocks[2, i] = None
+            blocks[2, 2] = self._to_nodes @ pressure_gradient
+            return self._node_tangent(blocks)
+
         point_force = np.column_stack([-traction, pressure])
         return ContactResponse(
             gap=gap,
@@ -312,7 +326,7 @@ class RigidFlat:
             traction=traction,
             stick_offset=relative - traction / eps_t,
             node_force=self.to_nodes(point_force),
-            node_stiffness=self._node_tangent(blocks),
+            stiffness=node_stiffness,
             node_height_derivative=self.to_nodes(height_derivative),
             symmetric=not np.any(coupling),
         )

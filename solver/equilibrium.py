@@ -64,6 +64,9 @@ UZAWA_INCREMENT_TOLERANCE = 1e-2
 FORCING_FACTOR = 0.1
 FORCING_MIN = 1e-10
 FORCING_MAX = 1e-3
+#: Relative Krylov tolerance of the path tangent du/dh (:meth:`Equilibrium.path_slope`): a
+#: predictor, which Newton corrects [-].
+PATH_SLOPE_TOLERANCE = 1e-4
 
 
 @dataclass(frozen=True)
@@ -159,6 +162,7 @@ class Equilibrium:
         self._force_row = reduction.create_reduced_vector()  # c = dr/du
         self._x1 = reduction.create_reduced_vector()
         self._x2 = reduction.create_reduced_vector()
+        self._path_tangent = None  # du/dh at the last path_slope
 
         num_dofs = 3 * reduction.num_reduced_global
         method = options.linear_solver
@@ -169,6 +173,7 @@ class Equilibrium:
                                 if method == "iterative" else None)
 
         self._active = None  # frozen contact set of the surface nodes, or None
+        self._hold_height = False  # displacement control of the current step
         # Reduced rows of the owned surface nodes and the reduced nodes of their 25 neighbours
         # on the periodic surface grid (the columns of the contact tangent).
         n = flat.grid_size
@@ -273,24 +278,34 @@ class Equilibrium:
 
     # --- Newton -----------------------------------------------------------------------------
 
-    def solve(self, normal_force: float, flat_slide: float, friction: bool) -> NewtonReport:
+    def solve(self, normal_force: float, flat_slide: float, friction: bool,
+              hold_height: bool = False) -> NewtonReport:
         """One load step: Newton solves with Uzawa updates of the contact multipliers until no
         contact node penetrates deeper than the tolerance.
 
         Parameters
         ----------
         normal_force : float
-            F_n to hold [N].
+            F_n to hold [N]; with ``hold_height``, only the force scale of the tolerances.
         flat_slide : float
             Flat's x displacement U [m].
         friction : bool
             Frictional contact (tangential phase) or frictionless (preload).
+        hold_height : bool
+            Keep the flat at its current height h (displacement control: one linear solve per
+            Newton iteration, and no limit point while a few yielding peaks carry the flat)
+            instead of solving for the h that carries ``normal_force``. Such a step (an
+            intermediate step of the preload) ends at the looser Newton tolerances of the solves
+            between Uzawa updates.
         """
+        self._hold_height = hold_height
         options = self.options
         tolerance = options.penetration_tolerance * self.spacing
         tight = (options.residual_tolerance, options.increment_tolerance)
         tolerances = (max(tight[0], UZAWA_RESIDUAL_TOLERANCE),
                       max(tight[1], UZAWA_INCREMENT_TOLERANCE))
+        if hold_height:  # a held step only marks the loading path: no solve to tight tolerances
+            tight = tolerances
         iterations = krylov = updates = solves = 0
         while True:
             # the tangential predictor belongs to the first solve of a step only
@@ -385,7 +400,7 @@ class Equilibrium:
             if iteration == limit:
                 reason = f"iteration limit {self.options.max_iterations} ({where(state)})"
                 break
-            if self.flat.count(state.contact.node_active) == 0:
+            if self.flat.count(state.contact.node_active) == 0 and not self._hold_height:
                 self.place_flat(normal_force)
                 state = self._evaluate(normal_force, flat_slide, friction, predictor)
                 increment = np.inf
@@ -416,16 +431,18 @@ class Equilibrium:
                   predictor: bool) -> _Iterate:
         """Assemble at the current iterate and measure its residuals."""
         contact = self.assemble(flat_slide, friction, predictor)
-        return _Iterate(contact, self.residual.norm(),
-                        self.flat.normal_force(contact) - normal_force)
+        force_error = 0.0 if self._hold_height else self.flat.normal_force(contact) - normal_force
+        return _Iterate(contact, self.residual.norm(), force_error)
 
     def _bordered_solve(self, force_error: float, tolerance: float) -> tuple[float, int]:
         """Solve the bordered Newton system to the relative ``tolerance``: du into x1; return
-        (dh [m], Krylov iterations)."""
+        (dh [m], Krylov iterations). With the height held, K du = -R alone (dh = 0)."""
         b, c = self._height_column, self._force_row
         self.linear_solver.set_operator(self.tangent, self._symmetric)
         self.residual.scale(-1.0)
         krylov = self.linear_solver.solve(self.residual, self._x1, relative_tolerance=tolerance)
+        if self._hold_height:
+            return 0.0, krylov
         b.scale(-1.0)
         # x2 = -K^-1 b changes little from one iterate to the next: start from the last one
         krylov += self.linear_solver.solve(b, self._x2, warm_start=True,
@@ -458,6 +475,29 @@ class Equilibrium:
             state = self._evaluate(normal_force, flat_slide, friction, predictor=False)
         return step, state
 
+    def path_slope(self) -> float:
+        """dF_n/dh along the frictionless equilibrium path at the current, converged iterate
+        [N/m] (< 0: lowering the flat loads it): residual, b, c and tangent assembled there,
+        one linear solve K du/dh = -b, c.du/dh + d. du/dh is kept for :meth:`follow_path`."""
+        self.assemble_tangent(self.assemble(0.0, friction=False))
+        self.linear_solver.set_operator(self.tangent, self._symmetric)
+        b, c = self._height_column, self._force_row
+        b.scale(-1.0)
+        self.linear_solver.solve(b, self._x2, warm_start=True,
+                                 relative_tolerance=PATH_SLOPE_TOLERANCE)
+        b.scale(-1.0)
+        if self._path_tangent is None:
+            self._path_tangent = self._x2.duplicate()
+        self._x2.copy(self._path_tangent)
+        return c.dot(self._x2) - c.sum()
+
+    def follow_path(self, height_change: float) -> None:
+        """Move the current iterate along the path tangent of the last :meth:`path_slope` by
+        dh = ``height_change`` [m]: u += du/dh dh, h += dh (the first iterate of a held
+        step)."""
+        self.displacement.axpy(height_change, self._path_tangent)
+        self.flat_height += height_change
+
     def place_flat(self, normal_force: float) -> None:
         """Lower the flat onto the current surface so that it roughly carries
         ``normal_force`` [N] (:meth:`RigidFlat.touching_height`): the first iterate of a step
@@ -474,7 +514,7 @@ class Equilibrium:
         for item in (self.displacement, *committed, self._elastic_tangent, self._tangent_full,
                      self._residual_full, self._solid_tangent, self.tangent, self.residual,
                      self._height_column, self._force_row, self._x1, self._x2,
-                     self._near_nullspace):
+                     self._path_tangent, self._near_nullspace):
             if item is not None:
                 item.destroy()
         self.linear_solver.destroy()
@@ -501,6 +541,11 @@ class Equilibrium:
         self.displacement.axpy(ratio, displacement)
         self.displacement.axpy(-ratio, older)
         self.flat_height = height + ratio * (height - older_height)
+
+    @property
+    def committed_height(self) -> float:
+        """Flat height h of the last committed step [m]."""
+        return self._committed[1]
 
     def committed_state(self) -> tuple:
         """Everything a converged step leaves behind (displacement, flat height, plastic

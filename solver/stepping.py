@@ -23,9 +23,13 @@ GROWTH = 1.5
 #: Grow the step after at most this many Newton iterations [-].
 EASY_ITERATIONS = 10
 MIN_FRACTION = 1e-3
-#: Largest preload increment as a fraction of F_n [-] (the plastic path is load-dependent;
-#: an elastic preload may take the whole load at once).
-MAX_PRELOAD_INCREMENT = 0.25
+#: Largest preload increment as a fraction of F_n [-] (the plastic path is load-dependent, at
+#: larger increments measurably: docs/benchmarks.md; an elastic preload may take the whole load
+#: at once).
+MAX_PRELOAD_INCREMENT = 0.5
+#: The preload's last step, to F_n under force control, starts within this fraction of F_n
+#: (the steps before hold the flat, :meth:`LoadPath.preload`) [-].
+FORCE_CONTROLLED = 0.1
 #: Largest sliding increment as a fraction of tau_c H / G [-] (resolves the F_t(U) curve).
 MAX_SLIDE_INCREMENT = 0.25
 
@@ -99,6 +103,7 @@ class LoadPath:
         self.failed_iterations = 0  # Newton iterations of failed attempts since the last step
         self.contact: ContactResponse | None = None  # at the last converged step
         self.normal_force = 0.0  # preload reached [N]
+        self._path_slope = None  # dF_n/dh at the last converged step, once computed [N/m]
         self._started = time.perf_counter()
 
     def branch_point(self) -> tuple:
@@ -111,7 +116,7 @@ class LoadPath:
         """Undo everything after :meth:`branch_point`: state, records and step count; the
         branch's wall time is not counted in later records."""
         state, num_records, self.contact, self.normal_force, self.attempts, taken = point
-        self.failed_iterations = 0
+        self.failed_iterations, self._path_slope = 0, None
         self.equilibrium.resume(state)
         del self.records[num_records:]
         self._started += time.perf_counter() - taken
@@ -124,33 +129,65 @@ class LoadPath:
 
     def preload(self, target: float) -> Outcome:
         """Frictionless normal loading from the current preload (0 at first) to ``target`` [N]
-        in adaptive increments of the load."""
+        in adaptive increments of the load.
+
+        Until the load is within ``FORCE_CONTROLLED`` of ``target``, a step holds the flat at a
+        height aimed at the step's load (displacement control: while a few yielding peaks carry
+        the flat, force control has a limit point where Newton stalls): the first from the
+        spring estimate of :meth:`Equilibrium.place_flat`, the next ones along the path tangent
+        (:meth:`_aim_height`, which falls short of its aim). A held step that carries more than
+        ``target`` is cut. The last step, to ``target``, is force-controlled.
+        """
         options = self.case.solver
         largest = 1.0 if options.elastic else MAX_PRELOAD_INCREMENT  # elastic: path-free
         size = StepSize(1.0 / options.normal_increments, largest)
-        last_increment = None  # force increment of the last accepted step of this call [N]
+        equilibrium = self.equilibrium
+        last = None  # force increment of the last accepted step of this call [N]
         while self.normal_force < target:
             start = self.normal_force / target
             trial = min(1.0, start + size.value)
+            hold = target - self.normal_force > FORCE_CONTROLLED * target
+            if hold:  # aim short of the target: an overshoot past it costs a cut
+                trial = min(trial, 1.0 - 0.5 * FORCE_CONTROLLED)
+            aim = trial * target
             if self.normal_force == 0.0:
-                self.equilibrium.place_flat(trial * target)
-            elif last_increment is not None:
-                self.equilibrium.extrapolate((trial * target - self.normal_force) / last_increment)
-            report = self._attempt(trial * target, 0.0, friction=False)
+                equilibrium.place_flat(aim)
+            elif hold:
+                self._aim_height(aim)
+            elif last is not None:
+                equilibrium.extrapolate((aim - self.normal_force) / last)
+            report = self._attempt(aim, 0.0, friction=False, hold_height=hold)
             if report is None:
                 return Outcome(False, f"step limit reached during preload at F_n = {start:.4g}"
                                       " x target")
+            force = equilibrium.flat.normal_force(report.contact) if hold else aim
+            if report.converged and not 0.0 < force <= target:  # held too low: aim lower
+                report = NewtonReport(False, report.iterations, report.krylov_iterations,
+                                      report.residual, report.contact,
+                                      f"the held flat carries {force / target:.3g} x F_n")
+                self._reject(report, friction=False)
             if not report.converged:
                 if not size.cut():
                     return Outcome(False, f"preload did not converge beyond {start:.4g} x F_n "
                                           f"({report.reason})")
                 continue
             # (not from the unloaded state: there the flat's height is not on the load path)
-            last_increment = trial * target - self.normal_force if self.normal_force else None
-            self.normal_force = trial * target
+            last = force - self.normal_force if self.normal_force else None
+            self.normal_force, self._path_slope = force, None
             self._accept("normal", report, 0.0)
             size.after(report)
         return Outcome(True)
+
+    def _aim_height(self, aim: float) -> None:
+        """First iterate of a held preload step aimed at the load ``aim`` [N] from the
+        committed step: the flat lowered by dh = ln(aim / F_n) / (d ln F_n / dh), the slope
+        of the equilibrium path there (exact for an exponential load-approach curve, short of
+        the aim for a power law F_n ~ d^a), and u along the path tangent."""
+        equilibrium = self.equilibrium
+        if self._path_slope is None:
+            self._path_slope = equilibrium.path_slope()
+        equilibrium.follow_path(np.log(aim / self.normal_force) * self.normal_force
+                                / self._path_slope)
 
     def slide(self) -> Outcome:
         """Tangential steps of the flat at the preload's constant F_n until every contact node
@@ -179,19 +216,24 @@ class LoadPath:
                                       "contact nodes slip)")
             size.after(report)
 
-    def _attempt(self, normal_force: float, slide: float, friction: bool) -> NewtonReport | None:
-        """One Newton solve; restores the committed state if it fails. None past the step
-        limit."""
+    def _attempt(self, normal_force: float, slide: float, friction: bool,
+                 hold_height: bool = False) -> NewtonReport | None:
+        """One Newton solve (arguments of :meth:`Equilibrium.solve`); restores the committed
+        state if it fails. None past the step limit."""
         self.attempts += 1
         if self.attempts > self.case.solver.max_steps:
             return None
-        report = self.equilibrium.solve(normal_force, slide, friction)
+        report = self.equilibrium.solve(normal_force, slide, friction, hold_height)
         if not report.converged:
-            self.failed_iterations += report.iterations
-            self.equilibrium.restore()
-            self.progress(StepCut("tangential" if friction else "normal", report.iterations,
-                                  report.residual, report.reason))
+            self._reject(report, friction)
         return report
+
+    def _reject(self, report: NewtonReport, friction: bool) -> None:
+        """Return to the committed state after a failed attempt, and report the cut."""
+        self.failed_iterations += report.iterations
+        self.equilibrium.restore()
+        self.progress(StepCut("tangential" if friction else "normal", report.iterations,
+                              report.residual, report.reason))
 
     def _accept(self, phase: str, report: NewtonReport, slide: float) -> StepRecord:
         """Commit a converged step and record it."""

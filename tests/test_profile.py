@@ -14,9 +14,10 @@ pytestmark = pytest.mark.fem
 
 
 def test_profile_counts_every_newton_solve_and_removes_its_wrappers():
-    """A random 8 x 8 surface preloaded and slid: every Newton iteration is one tangent and two
-    linear solves (x1, x2), the nested phases fit inside the residual assembly, the phases fit
-    inside the wall time, and the solver's methods are the originals afterwards."""
+    """A random 8 x 8 surface preloaded and slid: every Newton iteration is one tangent and a
+    linear solve x1 (and x2 where the flat's height is solved for), the nested phases fit
+    inside the residual assembly, the phases fit inside the wall time, and the solver's methods
+    are the originals afterwards."""
     originals = (Equilibrium.assemble, Equilibrium.assemble_tangent, LinearSolver.solve)
     heights = np.random.default_rng(3).normal(0.0, 1e-7, (8, 8))
     case = FemCase(Surface(heights, 1e-6, "test"), Loading(0.3))
@@ -31,7 +32,11 @@ def test_profile_counts_every_newton_solve_and_removes_its_wrappers():
     assert phases["reduced tangent"]["calls"] >= newton
     x1 = sum(row["solves"] for kind, row in solves.items() if kind.startswith("x1"))
     x2 = sum(row["solves"] for kind, row in solves.items() if kind.startswith("x2"))
-    assert x1 == x2 == phases["reduced tangent"]["calls"]
+    assert x1 >= newton
+    # the other tangents are the path slopes before held preload steps, each with an x2 solve
+    slopes = phases["reduced tangent"]["calls"] - x1
+    assert 0 < slopes < sum(record.phase == "normal" for record in result.records)
+    assert slopes <= x2 < x1 + slopes
     assert phases["linear solves"]["calls"] == x1 + x2
     krylov = sum(row["krylov_iterations"] for row in solves.values())
     assert krylov >= sum(record.krylov_iterations for record in result.records)

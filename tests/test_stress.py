@@ -89,12 +89,13 @@ def test_normal_only_and_unconverged_runs_report_the_preload_state():
 
 class ScriptedEquilibrium:
     """Stands in for solver.equilibrium.Equilibrium: Newton fails on the listed attempts (1, 2,
-    ...), converges in 3 iterations otherwise; 4 surface nodes, all in contact, all slipping
-    once the flat slides."""
+    ...), converges in 3 iterations otherwise, a held flat carrying the force aimed at; 4
+    surface nodes, all in contact, all slipping once the flat slides."""
 
     def __init__(self, failing):
         self.failing, self.calls = set(failing), 0
         self.extrapolations = []  # ratios passed to extrapolate
+        self.slopes, self.path_steps = 0, []  # path_slope calls, follow_path height changes
         self.flat_height = 0.0
         self.solid = types.SimpleNamespace(plastic_volume_fraction=lambda: 0.0)
         self.flat = types.SimpleNamespace(
@@ -105,7 +106,7 @@ class ScriptedEquilibrium:
             tangential_force=lambda contact: 0.5 * contact.fn if contact.slide else 0.0,
             count=lambda flags: int(np.count_nonzero(flags)))
 
-    def solve(self, normal_force, slide, friction):
+    def solve(self, normal_force, slide, friction, hold_height=False):
         from roughfriction.solver.equilibrium import NewtonReport
 
         self.calls += 1
@@ -121,6 +122,13 @@ class ScriptedEquilibrium:
 
     def extrapolate(self, ratio):
         self.extrapolations.append(ratio)
+
+    def path_slope(self):
+        self.slopes += 1
+        return -1.0
+
+    def follow_path(self, height_change):
+        self.path_steps.append(height_change)
 
     def restore(self):
         pass
@@ -153,9 +161,11 @@ def test_load_path_records_the_cuts_before_each_step_also_across_a_branch():
     assert [r.cuts for r in path.records] == [0, 2, 0, 0, 0, 0, 0]
     # every scripted attempt takes 3 Newton iterations: a step carries those of its failed ones
     assert [r.cut_iterations for r in path.records] == [0, 6, 0, 0, 0, 0, 0]
-    # steps 3-7 start from the last two steps extrapolated (not step 2: step 1 began unloaded)
-    assert len(equilibrium.extrapolations) == 5
-    np.testing.assert_allclose(equilibrium.extrapolations[:3], 1.5)  # increments grow by 1.5
+    # steps 2-6 hold the flat and follow the path tangent (a slope per committed state, kept
+    # across the cuts of step 2) up to 0.95 x the target (increments 0.2, 0.075 after the cuts,
+    # growing by 1.5); the last, force-controlled step extrapolates the last two
+    assert equilibrium.slopes == 5 and len(equilibrium.path_steps) == 7
+    np.testing.assert_allclose(equilibrium.extrapolations, [(1 - 0.95) / (0.95 - 0.809375)])
     branch = path.branch_point()
     assert path.slide().converged  # call 10 cut, 11 accepted at inception
     assert [r.cuts for r in path.records[7:]] == [1]
