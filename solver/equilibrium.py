@@ -437,19 +437,14 @@ class Equilibrium:
     def _bordered_solve(self, force_error: float, tolerance: float) -> tuple[float, int]:
         """Solve the bordered Newton system to the relative ``tolerance``: du into x1; return
         (dh [m], Krylov iterations). With the height held, K du = -R alone (dh = 0)."""
-        b, c = self._height_column, self._force_row
+        c = self._force_row
         self.linear_solver.set_operator(self.tangent, self._symmetric)
         self.residual.scale(-1.0)
         krylov = self.linear_solver.solve(self.residual, self._x1, relative_tolerance=tolerance)
         if self._hold_height:
             return 0.0, krylov
-        b.scale(-1.0)
-        # x2 = -K^-1 b changes little from one iterate to the next: start from the last one
-        krylov += self.linear_solver.solve(b, self._x2, warm_start=True,
-                                           relative_tolerance=tolerance)
-        b.scale(-1.0)
-        d = -c.sum()
-        height_increment = -(force_error + c.dot(self._x1)) / (c.dot(self._x2) + d)
+        krylov += self._solve_height_column(tolerance)
+        height_increment = -(force_error + c.dot(self._x1)) / self._height_slope()
         self._x1.axpy(height_increment, self._x2)
         return height_increment, krylov
 
@@ -481,14 +476,25 @@ class Equilibrium:
         one linear solve K du/dh = -b, c.du/dh + d. du/dh is kept for :meth:`follow_path`."""
         self.assemble_tangent(self.assemble(0.0, friction=False))
         self.linear_solver.set_operator(self.tangent, self._symmetric)
-        b, c = self._height_column, self._force_row
-        b.scale(-1.0)
-        self.linear_solver.solve(b, self._x2, warm_start=True,
-                                 relative_tolerance=PATH_SLOPE_TOLERANCE)
-        b.scale(-1.0)
+        self._solve_height_column(PATH_SLOPE_TOLERANCE)
         if self._path_tangent is None:
             self._path_tangent = self._x2.duplicate()
         self._x2.copy(self._path_tangent)
+        return self._height_slope()
+
+    def _solve_height_column(self, tolerance: float) -> int:
+        """x2 = du/dh = -K^-1 b to the relative ``tolerance``, warm-started (x2 changes little
+        from one iterate to the next); return the Krylov iterations."""
+        b = self._height_column
+        b.scale(-1.0)
+        krylov = self.linear_solver.solve(b, self._x2, warm_start=True,
+                                          relative_tolerance=tolerance)
+        b.scale(-1.0)
+        return krylov
+
+    def _height_slope(self) -> float:
+        """dr/dh along the solution: c.x2 + d with d = dr/dh = -sum c [N/m]."""
+        c = self._force_row
         return c.dot(self._x2) - c.sum()
 
     def follow_path(self, height_change: float) -> None:
@@ -541,11 +547,6 @@ class Equilibrium:
         self.displacement.axpy(ratio, displacement)
         self.displacement.axpy(-ratio, older)
         self.flat_height = height + ratio * (height - older_height)
-
-    @property
-    def committed_height(self) -> float:
-        """Flat height h of the last committed step [m]."""
-        return self._committed[1]
 
     def committed_state(self) -> tuple:
         """Everything a converged step leaves behind (displacement, flat height, plastic
