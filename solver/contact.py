@@ -28,7 +28,8 @@ Forces and tangent are the derivatives of the contact energy sum_a h_grid^2 psi(
 the friction work at the points: f_b = h_grid^2 sum_q w_q N_b(q) (-t_q, p_q). A node's weighted
 gap involves its 9 neighbours, so the tangent couples a node to the 25 nodes within 2 grid
 steps (``NEIGHBOURS``). A slipping point below p_r couples its traction to its node's pressure
-(dt/dp = tau_c / p_r along the slip): that part is not symmetric (``ContactResponse.symmetric``).
+(dt/dp = tau_c / p_r along the slip): that part is not symmetric (``ContactResponse.symmetric``),
+and a Newton solver may leave it out (``RigidFlat.symmetric_tangent``).
 
 Stick before slide: at the first Newton iterate of a tangential step, points that stuck at the
 last converged step keep the uncapped stick law (tangential predictor). A point out of contact at
@@ -115,8 +116,11 @@ class ContactResponse:
         Computes :attr:`node_stiffness` (once, when a linear solve needs it).
     node_height_derivative : numpy.ndarray
         dR_a/dh [N/m], shape (N^2, 3).
+    coupled : bool
+        Some slipping point couples its traction to its pressure (below p_r).
     symmetric : bool
-        No slipping point couples its traction to its pressure.
+        The tangent is symmetric: no coupling, or its coupling left out
+        (:attr:`RigidFlat.symmetric_tangent`).
     """
 
     gap: np.ndarray
@@ -131,6 +135,7 @@ class ContactResponse:
     node_force: np.ndarray
     stiffness: Callable[[], np.ndarray]
     node_height_derivative: np.ndarray
+    coupled: bool
     symmetric: bool
 
     @cached_property
@@ -168,6 +173,12 @@ class RigidFlat:
         Stick penalty eps_T [Pa/m].
     points_per_side : int
         Gauss points per face side n [-].
+
+    Attributes
+    ----------
+    symmetric_tangent : bool
+        Leave the ramp's coupling dt/dp out of the tangent (an approximate, symmetric Newton
+        tangent; the residual keeps the law exactly). False by default.
     """
 
     def __init__(self, comm, nodes: np.ndarray, grid_index: np.ndarray, grid_size: int,
@@ -181,6 +192,7 @@ class RigidFlat:
         self.tangential_penalty = tangential_penalty
         self.shear_strength = shear_strength
         self.ramp_pressure = ramp_pressure
+        self.symmetric_tangent = False  # see the class docstring
         self.owned_grid = grid_index[:, 0] * n + grid_index[:, 1]  # grid node of each owned node
         self._gather_order = np.argsort(np.concatenate(comm.allgather(self.owned_grid)))
         if len(self._gather_order) != n * n or np.any(
@@ -292,6 +304,9 @@ class RigidFlat:
         pressure_height = -(self._point_pressure @ stiffness)  # dp_q/dh
         # below p_r a slipping point's traction c(p) n follows its pressure
         coupling = self.cap_slope(pressure, slipping)[:, None] * direction  # dc/dp n [-]
+        coupled = bool(np.any(coupling))
+        if self.symmetric_tangent:
+            coupling = np.zeros_like(coupling)
         height_derivative = np.column_stack([-coupling * pressure_height[:, None],
                                              pressure_height])
 
@@ -328,6 +343,7 @@ class RigidFlat:
             node_force=self.to_nodes(point_force),
             stiffness=node_stiffness,
             node_height_derivative=self.to_nodes(height_derivative),
+            coupled=coupled,
             symmetric=not np.any(coupling),
         )
 

@@ -37,10 +37,10 @@ LINE_SEARCH_HALVINGS = 5
 #: Give a step up when ||R|| + |r| has not halved over this many iterations (stick/slip or
 #: open/closed cycling; the step is then cut) [-].
 STAGNATION_WINDOW = 4
-#: A Newton solve that stagnates with ||R||, |r| within this factor of the residual tolerance,
-#: under the contact law itself and with max |du| within the increment tolerance, has reached
-#: the floor set by the inexact Krylov solves and the kinks of the contact law: it is accepted,
-#: not cut (Newton tolerances 1e-4 and 1e-8 F_n give the same mu_s to 0.06 %) [-].
+#: A Newton solve that stagnates with ||R||, |r| and max |du| within this factor of their
+#: tolerances, under the contact law itself, has reached the floor set by the inexact Krylov
+#: solves and the kinks of the contact law: it is accepted, not cut (Newton tolerances 1e-4
+#: and 1e-8 F_n give the same mu_s to 0.06 %) [-].
 RESIDUAL_FLOOR = 10.0
 #: Newton iterations with the contact law free; then the contact set is frozen until the
 #: iterate converges: its nodes stay in contact, and nodes that penetrate join it (the set
@@ -157,6 +157,7 @@ class Equilibrium:
         self._solid_tangent = None  # P^T K P, created at the first assembly
         self.tangent = None  # P^T K P + contact, created at the first assembly
         self._symmetric = True  # the tangent, at its last assembly
+        self._coupled = False  # some slipping point's cap followed its pressure there
         self.residual = reduction.create_reduced_vector()
         self._height_column = reduction.create_reduced_vector()  # b = dR/dh
         self._force_row = reduction.create_reduced_vector()  # c = dr/du
@@ -249,6 +250,7 @@ class Equilibrium:
                                          addv=PETSc.InsertMode.ADD_VALUES)
         self.tangent.assemble()
         self._symmetric = self.comm.allreduce(contact.symmetric, op=MPI.LAND)
+        self._coupled = self.comm.allreduce(contact.coupled, op=MPI.LOR)
 
     def _system_matrix(self, solid: PETSc.Mat) -> PETSc.Mat:
         """A zero matrix with the nonzeros of ``solid`` (P^T K P) and of the contact blocks: the
@@ -340,10 +342,16 @@ class Equilibrium:
         """Newton iterations from the current iterate with fixed multipliers (``predictor``:
         start with the tangential predictor of :meth:`RigidFlat.respond`) until ||R||, |r| <=
         ``residual_tolerance`` F_n and max |du| <= ``increment_tolerance`` h; other arguments as
-        in :meth:`solve`."""
+        in :meth:`solve`.
+
+        The iterations start with the symmetric tangent (:attr:`RigidFlat.symmetric_tangent`:
+        CG, and no stick/slip cycling driven by the cap's ramp) and go on with the exact one if
+        they stagnate or reach the iteration limit while slipping points sit on the ramp (the
+        symmetric tangent then converges only linearly)."""
         tolerance_force = residual_tolerance * normal_force
         tolerance_increment = increment_tolerance * self.spacing
         self._active = None
+        self.flat.symmetric_tangent = True
         state = self._evaluate(normal_force, flat_slide, friction, predictor)
         increment, krylov = 0.0, 0
         history = []
@@ -358,7 +366,7 @@ class Equilibrium:
         def converged(state: _Iterate, factor: float = 1.0) -> bool:
             return (not predictor and state.residual <= factor * tolerance_force
                     and abs(state.force_error) <= factor * tolerance_force
-                    and increment <= tolerance_increment)
+                    and increment <= factor * tolerance_increment)
 
         for iteration in itertools.count():
             if converged(state) and self._active is not None:
@@ -394,6 +402,14 @@ class Equilibrium:
                 if converged(state, RESIDUAL_FLOOR):
                     return NewtonReport(True, iteration, krylov, state.residual / normal_force,
                                         state.contact)
+            if (stagnating or iteration == limit) and self.flat.symmetric_tangent and self._coupled:
+                # slipping points on the cap's ramp: go on with the exact tangent
+                self.flat.symmetric_tangent = False
+                state = self._evaluate(normal_force, flat_slide, friction, predictor=False)
+                history.clear()
+                limit = iteration + self.options.max_iterations
+                continue
+            if stagnating:
                 reason = (f"residual not halved in {STAGNATION_WINDOW} iterations (stick/slip "
                           f"or open/closed cycling; {where(state)})")
                 break

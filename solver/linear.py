@@ -3,8 +3,9 @@ iterations and load steps.
 
 The reduced tangent is symmetric positive definite (J2 consistent tangent with hardening,
 penalty contact, the slip tangent of the friction cap), so both methods are preconditioned CG,
-except while a slipping node's cap follows its pressure (below the ramp pressure, see
-:mod:`solver.contact`): a few non-symmetric entries, for which the same preconditioner drives
+except where Newton uses the exact tangent while a slipping node's cap follows its pressure
+(below the ramp pressure, see :mod:`solver.contact` and :mod:`solver.equilibrium`): a few
+non-symmetric entries, for which the same preconditioner drives
 right-preconditioned GMRES (a Cholesky factorisation then uses the upper triangle: an
 approximate inverse, which GMRES corrects; a random 16 x 16 surface at F* = 0.3 slides to the
 same mu_s, to 1e-9, with it as with GAMG):

@@ -233,6 +233,30 @@ def test_nodal_tangent_and_height_derivative_match_finite_differences(pressure, 
                                atol=1e-7 * scale)
 
 
+def test_the_symmetric_tangent_drops_only_the_ramp_coupling():
+    """With ``symmetric_tangent`` the forces are unchanged and the tangent loses exactly the
+    dt/dp blocks of points slipping below p_r (the pressure columns of the shear rows)."""
+    rng = np.random.default_rng(2)
+    pressure = 2.5e6  # below the ramp pressure: the slipping points couple
+    heights = rng.normal(size=(N, N)) * 1e-3 * pressure / PENALTY
+    flat = anchored(flat_over(heights))
+    u0 = rng.normal(size=(N * N, 3)) * 1e-3 * pressure / PENALTY
+    args = (u0, -pressure / PENALTY, 3 * TAU_C / PENALTY)
+    exact = flat.respond(*args, friction=True)
+    flat.symmetric_tangent = True
+    approximate = flat.respond(*args, friction=True)
+    assert exact.coupled and approximate.coupled
+    assert not exact.symmetric and approximate.symmetric
+    np.testing.assert_array_equal(approximate.node_force, exact.node_force)
+    dropped = exact.node_stiffness - approximate.node_stiffness
+    assert np.abs(dropped[:, :, :2, 2]).max() > 0.1 * np.abs(exact.node_stiffness).max()
+    dropped[:, :, :2, 2] = 0.0
+    np.testing.assert_array_equal(dropped, 0.0)
+    np.testing.assert_array_equal(approximate.node_height_derivative[:, 2],
+                                  exact.node_height_derivative[:, 2])
+    np.testing.assert_array_equal(approximate.node_height_derivative[:, :2], 0.0)
+
+
 def test_touching_height_carries_the_force_with_springs_at_the_nodes():
     heights = np.zeros((N, N))
     heights[1, 1] = 1e-8

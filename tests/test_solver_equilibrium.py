@@ -7,8 +7,13 @@ from mpi4py import MPI  # noqa: E402
 from petsc4py import PETSc  # noqa: E402
 from roughfriction.case import FemCase, Loading, SolverOptions  # noqa: E402
 from roughfriction.geometry.generate import builtin_surface  # noqa: E402
-from roughfriction.geometry.surface import Surface, surface_on_fem_grid  # noqa: E402
+from roughfriction.geometry.surface import (  # noqa: E402
+    Surface,
+    bilinear_refine,
+    surface_on_fem_grid,
+)
 from roughfriction.solver import equilibrium as equilibrium_module  # noqa: E402
+from roughfriction.solver.contact import RigidFlat  # noqa: E402
 from roughfriction.solver.equilibrium import Equilibrium  # noqa: E402
 from roughfriction.solver.run import run  # noqa: E402
 from roughfriction.solver.stepping import LoadPath  # noqa: E402
@@ -98,3 +103,27 @@ def test_the_preload_holds_the_flat_until_its_last_step():
     assert normal[-1].normal_force == pytest.approx(target, rel=1e-6)
     forces = [record.normal_force for record in normal]
     assert all(0 < a < b for a, b in zip(forces[:-1], forces[1:], strict=True))
+
+
+def test_sliding_goes_on_with_the_exact_tangent_where_the_symmetric_one_stalls(monkeypatch):
+    """G5 re-gridded to 4 x 4 and sampled on an 8 x 8 mesh, at F* = 0.155: many slipping points
+    carry less than p_r, where the symmetric tangent (without dt/dp) converges only linearly
+    (alone, it cuts the steps down until the slide hits its step limit). Newton goes on with the
+    exact tangent there, and the slide reaches full slip without a cut."""
+    coarse = surface_on_fem_grid(builtin_surface("G5"), 4)
+    surface = Surface(bilinear_refine(coarse.heights, 2), coarse.spacing / 2, coarse.name)
+    exact_while_coupled = []
+    respond = RigidFlat.respond
+
+    def spy(flat, *args, **kwargs):
+        response = respond(flat, *args, **kwargs)
+        exact_while_coupled.append(response.coupled and not flat.symmetric_tangent)
+        return response
+
+    monkeypatch.setattr(RigidFlat, "respond", spy)
+    result = run(FemCase(surface, Loading(0.155)), MPI.COMM_SELF,
+                 progress=lambda record: None).result
+    assert result.converged, result.message
+    assert any(exact_while_coupled)
+    assert sum(record.cuts for record in result.records) == 0
+    assert result.records[-1].slipping_nodes == result.records[-1].contact_nodes
