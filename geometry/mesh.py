@@ -158,15 +158,19 @@ def mesh_size(n: int, options: MeshOptions) -> tuple[int, int]:
     return cells, int(3 * sum((n // stride) ** 2 for stride in layer_stride))
 
 
-#: Peak memory of a run, summed over ranks: MEMORY_PER_RANK_GB per rank plus MEMORY_PER_DOF_GB
-#: per reduced dof [GB] (an upper fit of ``make bench-fem``, N = 32-128 on 1 and 2 ranks).
+#: Peak memory of a run, summed over ranks: MEMORY_PER_RANK_GB per rank, plus
+#: CONTACT_MEMORY_PER_NODE_GB per surface grid node on every rank (each rank evaluates the whole
+#: surface's contact), plus MEMORY_PER_DOF_GB per reduced dof [GB] (an upper fit of
+#: ``make bench-fem``, N = 32-128 on 2 ranks, and of the contact arrays alone to N = 512).
 MEMORY_PER_RANK_GB = 0.2
+CONTACT_MEMORY_PER_NODE_GB = 6.5e-6
 MEMORY_PER_DOF_GB = 12e-6
 
 
 def estimated_memory_gb(n: int, options: MeshOptions, ranks: int) -> float:
     """Peak memory of an FEM run on an n x n surface, summed over ``ranks`` ranks [GB]."""
-    return ranks * MEMORY_PER_RANK_GB + MEMORY_PER_DOF_GB * mesh_size(n, options)[1]
+    return (ranks * (MEMORY_PER_RANK_GB + CONTACT_MEMORY_PER_NODE_GB * n**2)
+            + MEMORY_PER_DOF_GB * mesh_size(n, options)[1])
 
 
 def node_layer_stride(layer_stride: np.ndarray) -> np.ndarray:

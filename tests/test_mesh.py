@@ -11,11 +11,13 @@ from roughfriction.geometry.mesh import (  # noqa: E402
     boundary_facet_tags,
     build_block,
     corner_jacobians,
+    estimated_memory_gb,
     interpolation_masters,
     layer_layout,
     slab_partitioner,
     structured_block,
 )
+from roughfriction.solver.run import check_memory  # noqa: E402
 
 pytestmark = pytest.mark.fem
 
@@ -157,3 +159,26 @@ def test_the_block_is_partitioned_the_same_way_at_every_build():
         owned.append(np.sort(block.mesh.geometry.x[nodes].reshape(-1, 24), axis=0))
     for other in owned[1:]:
         np.testing.assert_array_equal(other, owned[0])
+
+
+def test_the_memory_estimate_bounds_the_benchmarked_runs():
+    """The estimate lies above the peak memory of every committed `make bench-fem` row
+    (docs/bench/fem.csv), but within 1.5x of it (else it refuses runs that would fit)."""
+    import csv
+    from pathlib import Path
+
+    rows = list(csv.DictReader((Path(__file__).parents[1] / "docs" / "bench" / "fem.csv")
+                               .read_text().splitlines()))
+    assert rows
+    for row in rows:
+        estimate = estimated_memory_gb(int(row["n"]), MeshOptions(), int(row["ranks"]))
+        assert 1.0 < estimate / float(row["peak_memory_gb"]) < 1.5, row
+
+
+def test_a_run_too_large_for_the_memory_is_refused_before_meshing(monkeypatch):
+    from roughfriction.solver import run as run_module
+
+    monkeypatch.setattr(run_module, "available_memory_gb", lambda comm: 8.0)
+    check_memory(256, MeshOptions(), MPI.COMM_SELF)  # ~7 GB
+    with pytest.raises(InputError, match=r"N = 512: the FEM run needs about 2\d\.\d GB"):
+        check_memory(512, MeshOptions(), MPI.COMM_SELF)
