@@ -175,7 +175,7 @@ def test_the_memory_estimate_bounds_the_benchmarked_runs():
         assert 1.0 < estimate / float(row["peak_memory_gb"]) < 1.5, row
 
 
-def test_a_run_too_large_for_the_memory_is_refused_before_meshing(monkeypatch):
+def test_a_run_too_large_for_the_available_memory_is_refused(monkeypatch):
     from roughfriction.solver import run as run_module
 
     monkeypatch.setattr(run_module, "available_memory_gb", lambda comm: 8.0)

@@ -7,11 +7,7 @@ from mpi4py import MPI  # noqa: E402
 from petsc4py import PETSc  # noqa: E402
 from roughfriction.case import FemCase, Loading, SolverOptions  # noqa: E402
 from roughfriction.geometry.generate import builtin_surface  # noqa: E402
-from roughfriction.geometry.surface import (  # noqa: E402
-    Surface,
-    bilinear_refine,
-    surface_on_fem_grid,
-)
+from roughfriction.geometry.surface import Surface, surface_on_fem_grid  # noqa: E402
 from roughfriction.solver import equilibrium as equilibrium_module  # noqa: E402
 from roughfriction.solver.contact import RigidFlat  # noqa: E402
 from roughfriction.solver.equilibrium import Equilibrium  # noqa: E402
@@ -110,8 +106,9 @@ def test_sliding_goes_on_with_the_exact_tangent_where_the_symmetric_one_stalls(m
     carry less than p_r, where the symmetric tangent (without dt/dp) converges only linearly
     (alone, it cuts the steps down until the slide hits its step limit). Newton goes on with the
     exact tangent there, and the slide reaches full slip without a cut."""
-    coarse = surface_on_fem_grid(builtin_surface("G5"), 4)
-    surface = Surface(bilinear_refine(coarse.heights, 2), coarse.spacing / 2, coarse.name)
+    from roughfriction.studies.refinement import refined_case
+
+    case = refined_case(FemCase(surface_on_fem_grid(builtin_surface("G5"), 4), Loading(0.155)), 2)
     exact_while_coupled = []
     respond = RigidFlat.respond
 
@@ -121,8 +118,7 @@ def test_sliding_goes_on_with_the_exact_tangent_where_the_symmetric_one_stalls(m
         return response
 
     monkeypatch.setattr(RigidFlat, "respond", spy)
-    result = run(FemCase(surface, Loading(0.155)), MPI.COMM_SELF,
-                 progress=lambda record: None).result
+    result = run(case, MPI.COMM_SELF, progress=lambda record: None).result
     assert result.converged, result.message
     assert any(exact_while_coupled)
     assert sum(record.cuts for record in result.records) == 0
