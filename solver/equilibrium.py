@@ -64,6 +64,12 @@ UZAWA_INCREMENT_TOLERANCE = 1e-2
 FORCING_FACTOR = 0.1
 FORCING_MIN = 1e-10
 FORCING_MAX = 1e-3
+#: ... but never tighter than FORCING_SAFEGUARD x the Newton tolerance / (||R|| + |r|) / F_n
+#: (at most FORCING_SAFEGUARD_MAX): a linear residual below the Newton tolerance is not needed
+#: to meet it (Eisenstat-Walker's safeguard; Kelley, Iterative Methods for Linear and Nonlinear
+#: Equations, 1995, Sec. 6.3) [-].
+FORCING_SAFEGUARD = 0.5
+FORCING_SAFEGUARD_MAX = 0.1
 #: Relative Krylov tolerance of the path tangent du/dh (:meth:`Equilibrium.path_slope`): a
 #: predictor, which Newton corrects [-].
 PATH_SLOPE_TOLERANCE = 1e-4
@@ -111,13 +117,18 @@ class _Iterate:
         return self.residual**2 + self.force_error**2
 
 
-def forcing_term(state: _Iterate, normal_force: float) -> float:
-    """Relative Krylov tolerance of a Newton solve, proportional to the relative nonlinear
-    residual (inexact Newton, Eisenstat-Walker choice 2 with exponent 1): loose far from the
-    solution, tight near it, so convergence stays quadratic without over-solving early
-    iterations [-]."""
+def forcing_term(state: _Iterate, normal_force: float, residual_tolerance: float) -> float:
+    """Relative Krylov tolerance of a Newton solve to ``residual_tolerance`` F_n, proportional
+    to the relative nonlinear residual (inexact Newton, Eisenstat-Walker choice 2 with exponent
+    1): loose far from the solution, tight near it, so convergence stays quadratic without
+    over-solving early iterations, and never tighter than the Newton tolerance
+    ``residual_tolerance`` needs (0: no such bound) [-]."""
     relative_residual = (state.residual + abs(state.force_error)) / normal_force
-    return min(FORCING_MAX, max(FORCING_MIN, FORCING_FACTOR * relative_residual))
+    forcing = min(FORCING_MAX, max(FORCING_MIN, FORCING_FACTOR * relative_residual))
+    if relative_residual == 0.0:
+        return forcing
+    return max(forcing, min(FORCING_SAFEGUARD_MAX,
+                            FORCING_SAFEGUARD * residual_tolerance / relative_residual))
 
 
 class Equilibrium:
@@ -350,6 +361,10 @@ class Equilibrium:
         symmetric tangent then converges only linearly)."""
         tolerance_force = residual_tolerance * normal_force
         tolerance_increment = increment_tolerance * self.spacing
+        # the forcing term's safeguard for the iterative method only: CG on reused Cholesky
+        # factors gains nothing from it, and its Newton path then stays the same on any number
+        # of ranks to round-off (GAMG's aggregates depend on the partition anyway)
+        safeguarded = residual_tolerance if self.linear_solver.method == "iterative" else 0.0
         self._active = None
         self.flat.symmetric_tangent = True
         state = self._evaluate(normal_force, flat_slide, friction, predictor)
@@ -428,7 +443,7 @@ class Equilibrium:
             self.assemble_tangent(state.contact)
             try:
                 height_increment, its = self._bordered_solve(
-                    state.force_error, forcing_term(state, normal_force))
+                    state.force_error, forcing_term(state, normal_force, safeguarded))
             except LinearSolveError as error:
                 reason = str(error)
                 break
@@ -452,15 +467,27 @@ class Equilibrium:
 
     def _bordered_solve(self, force_error: float, tolerance: float) -> tuple[float, int]:
         """Solve the bordered Newton system to the relative ``tolerance``: du into x1; return
-        (dh [m], Krylov iterations). With the height held, K du = -R alone (dh = 0)."""
+        (dh [m], Krylov iterations). With the height held, K du = -R alone (dh = 0).
+
+        du = x1 + dh x2 with K x1 = -R and K x2 = -b, so x2's residual enters du's times dh:
+        x2 is solved again, tighter, until dh ||K x2 + b|| <= ``tolerance`` (||R|| + |r|)
+        (||b|| dh, the force of moving the flat, can be far above them near convergence)."""
         c = self._force_row
         self.linear_solver.set_operator(self.tangent, self._symmetric)
         self.residual.scale(-1.0)
         krylov = self.linear_solver.solve(self.residual, self._x1, relative_tolerance=tolerance)
         if self._hold_height:
             return 0.0, krylov
-        krylov += self._solve_height_column(tolerance)
-        height_increment = -(force_error + c.dot(self._x1)) / self._height_slope()
+        allowed = (tolerance * (self.residual.norm() + abs(force_error))
+                   / self._height_column.norm())  # bound on dh x x2's relative tolerance
+        height_tolerance = tolerance
+        while True:
+            krylov += self._solve_height_column(height_tolerance)
+            height_increment = -(force_error + c.dot(self._x1)) / self._height_slope()
+            if (abs(height_increment) * height_tolerance <= allowed
+                    or height_tolerance <= FORCING_MIN):
+                break
+            height_tolerance = max(FORCING_MIN, 0.5 * allowed / abs(height_increment))
         self._x1.axpy(height_increment, self._x2)
         return height_increment, krylov
 

@@ -23,8 +23,9 @@ GMRES, which needs neither to be definite; a solve that stops at the iteration l
 it reduced the residual by at least ``INEXACT_ACCEPTED`` (an inexact Newton direction: the
 Newton loop judges convergence by the nonlinear residual alone, so this can slow it but not
 change its answer). If a fresh GAMG hierarchy still fails (GMRES breaks down on some sliding
-tangents, made non-symmetric by slipping points below the ramp pressure), the solver switches
-for the rest of the run to MUMPS LU factors as preconditioner, reused like the direct method's.
+tangents, made non-symmetric by slipping points below the ramp pressure), or GMRES on reused
+Cholesky factors (restarted GMRES can stall on such a tangent), the solver switches for the rest
+of the run to MUMPS LU factors as preconditioner, reused like the direct method's.
 """
 
 from __future__ import annotations
@@ -102,7 +103,7 @@ class LinearSolver:
         self._rebuild = True
         self.last_iterations = 0
         self.rebuilds = 0
-        self.fell_back = ""  # why the iterative method gave way to factorisations, if it did
+        self.fell_back = ""  # why GAMG or Cholesky gave way to LU factors, if they did
 
     def set_operator(self, matrix: PETSc.Mat, symmetric: bool = True) -> None:
         """Use ``matrix`` (new values, same pattern) for the next solves; CG if it is
@@ -142,7 +143,7 @@ class LinearSolver:
             failure = (f"Krylov solver {self.ksp.getType()} ({self.method}) "
                        f"{converged_reason_name(reason)} ({reason}) after "
                        f"{self.ksp.getIterationNumber()} iterations")
-            if self.method != "iterative":
+            if self.ksp.getPC().getType() == "lu":
                 raise LinearSolveError(failure)
             self.fell_back = failure
             self._precondition_with_factors()

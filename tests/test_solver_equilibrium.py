@@ -123,3 +123,48 @@ def test_sliding_goes_on_with_the_exact_tangent_where_the_symmetric_one_stalls(m
     assert any(exact_while_coupled)
     assert sum(record.cuts for record in result.records) == 0
     assert result.records[-1].slipping_nodes == result.records[-1].contact_nodes
+
+
+def test_the_forcing_term_is_never_tighter_than_the_newton_tolerance_needs():
+    """Far from the solution the Krylov tolerance is 0.1 x the relative residual, at most 1e-3;
+    near it, half the Newton tolerance over the relative residual (at most 0.1): a solve to
+    1e-6 F_n from 2e-6 F_n needs only a linear residual below 0.5e-6 F_n."""
+    forcing = equilibrium_module.forcing_term
+    contact = None
+    assert forcing(equilibrium_module._Iterate(contact, 1.0, 0.0), 1.0, 1e-6) == 1e-3
+    assert forcing(equilibrium_module._Iterate(contact, 1e-3, 0.0), 1.0, 1e-8) == (
+        pytest.approx(1e-4))
+    assert forcing(equilibrium_module._Iterate(contact, 1e-3, 0.0), 1.0, 1e-6) == (
+        pytest.approx(5e-4))
+    assert forcing(equilibrium_module._Iterate(contact, 1e-5, 1e-5), 1.0, 1e-6) == (
+        pytest.approx(0.025))
+    assert forcing(equilibrium_module._Iterate(contact, 1e-6, 1e-6), 1.0, 1e-6) == 0.1
+
+
+def test_the_bordered_newton_direction_meets_its_krylov_tolerance(monkeypatch):
+    """At every Newton iteration of a random 16 x 16 surface's preload and sliding, the
+    direction (du, dh) of the bordered system leaves a linear residual ||K du + b dh + R|| of at
+    most 2 x the forcing term x (||R|| + |r|) (x1's and x2's residuals, each within it): the
+    height column, scaled by dh, would otherwise dominate it near convergence."""
+    bordered_solve = Equilibrium._bordered_solve
+    ratios = []
+
+    def checked(self, force_error, tolerance):
+        residual_norm = self.residual.norm() + abs(force_error)
+        height_increment, krylov = bordered_solve(self, force_error, tolerance)
+        if not self._hold_height and residual_norm > 0.0:
+            linear = self._x1.duplicate()
+            self.tangent.mult(self._x1, linear)  # K du
+            linear.axpy(height_increment, self._height_column)  # + b dh
+            linear.axpy(-1.0, self.residual)  # + R (the residual holds -R here)
+            ratios.append(linear.norm() / (tolerance * residual_norm))
+            linear.destroy()
+        return height_increment, krylov
+
+    monkeypatch.setattr(Equilibrium, "_bordered_solve", checked)
+    heights = np.random.default_rng(7).normal(0.0, 1e-7, (16, 16))
+    case = FemCase(Surface(heights, 1e-6, "test"), Loading(0.5))
+    result = run(case, MPI.COMM_WORLD, progress=lambda record: None).result
+    assert result.converged, result.message
+    assert len(ratios) > 20
+    assert max(ratios) <= 2.0, f"linear residual {max(ratios):.3g} x the forcing term"

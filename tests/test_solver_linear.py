@@ -120,3 +120,31 @@ def test_gamg_stays_definite_at_first_contact_of_a_refined_rough_surface(monkeyp
     outcome = run(case, MPI.COMM_SELF, progress=lambda record: None)
     assert outcome.result.converged and outcome.result.sizes["linear_solver_fallback"] == ""
     assert reasons and min(reasons) > 0
+
+
+def test_gmres_on_cholesky_factors_that_stalls_falls_back_to_lu(monkeypatch):
+    """The direct method preconditions a non-symmetric operator with Cholesky factors of its
+    upper triangle, which need not help: tridiag(-1 - s, 2, -1 + s) with s = 0.9 is far from
+    its upper triangle's symmetric matrix, and 3 GMRES iterations on those factors do not reduce
+    the residual 100x; the solver switches to LU factors and solves."""
+    monkeypatch.setattr("roughfriction.solver.linear.MAX_KRYLOV_ITERATIONS", 3)
+    size, skew = 200, 0.9
+    matrix = PETSc.Mat().createAIJ([size, size], nnz=3, comm=MPI.COMM_SELF)
+    for i in range(size):
+        matrix.setValue(i, i, 2.0)
+        if i > 0:
+            matrix.setValue(i, i - 1, -1.0 - skew)
+        if i < size - 1:
+            matrix.setValue(i, i + 1, -1.0 + skew)
+    matrix.assemble()
+    rhs = matrix.createVecLeft()
+    rhs.setArray(np.sin(np.linspace(0.0, 40.0, size)))
+    solution, residual = rhs.duplicate(), rhs.duplicate()
+    solver = LinearSolver(MPI.COMM_SELF, "direct", relative_tolerance=1e-10)
+    solver.set_operator(matrix, symmetric=False)
+    solver.solve(rhs, solution)
+    matrix.mult(solution, residual)
+    residual.axpy(-1.0, rhs)
+    assert "gmres (direct) DIVERGED_MAX_IT" in solver.fell_back
+    assert solver.ksp.getPC().getType() == "lu"
+    assert residual.norm() / rhs.norm() < 1e-10
