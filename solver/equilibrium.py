@@ -292,7 +292,7 @@ class Equilibrium:
     # --- Newton -----------------------------------------------------------------------------
 
     def solve(self, normal_force: float, flat_slide: float, friction: bool,
-              hold_height: bool = False) -> NewtonReport:
+              hold_height: bool = False, predictor: bool = True) -> NewtonReport:
         """One load step: Newton solves with Uzawa updates of the contact multipliers until no
         contact node penetrates deeper than the tolerance.
 
@@ -310,6 +310,9 @@ class Equilibrium:
             instead of solving for the h that carries ``normal_force``. Such a step (an
             intermediate step of the preload) ends at the looser Newton tolerances of the solves
             between Uzawa updates.
+        predictor : bool
+            A tangential step's first solve starts with the tangential predictor (False: the
+            caller has placed a first iterate, :meth:`extrapolate`).
         """
         self._hold_height = hold_height
         options = self.options
@@ -323,7 +326,7 @@ class Equilibrium:
         while True:
             # the tangential predictor belongs to the first solve of a step only
             report = self._newton(normal_force, flat_slide, friction,
-                                  friction and solves == 0, *tolerances)
+                                  predictor and friction and solves == 0, *tolerances)
             solves += 1
             iterations += report.iterations
             krylov += report.krylov_iterations

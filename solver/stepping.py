@@ -191,14 +191,20 @@ class LoadPath:
 
     def slide(self) -> Outcome:
         """Tangential steps of the flat at the preload's constant F_n until every contact node
-        slips."""
+        slips. The first step starts from the preload's state with the tangential predictor
+        (:meth:`RigidFlat.respond`); every later one from the last two steps extrapolated by
+        its increment (:meth:`Equilibrium.extrapolate`), so that its slip and contact sets
+        start close to their final ones."""
         target = self.normal_force
         scale = self.flat_block_slide
         size = StepSize(self.case.solver.first_slide * scale, MAX_SLIDE_INCREMENT * scale)
         slide = 0.0
+        last = None  # increment of the last accepted sliding step [m]
         while True:
             trial = slide + size.value
-            report = self._attempt(target, trial, friction=True)
+            if last is not None:
+                self.equilibrium.extrapolate(size.value / last)
+            report = self._attempt(target, trial, friction=True, predictor=last is None)
             if report is None:
                 return Outcome(False, f"step limit reached while sliding at u_x = {slide:.4g} m")
             if not report.converged:
@@ -206,7 +212,7 @@ class LoadPath:
                     return Outcome(False, f"tangential step did not converge at u_x = {slide:.4g}"
                                           f" m ({report.reason})")
                 continue
-            slide = trial
+            last, slide = trial - slide, trial
             record = self._accept("tangential", report, slide)
             if record.slipping_nodes == record.contact_nodes > 0:
                 return Outcome(True)
@@ -217,13 +223,13 @@ class LoadPath:
             size.after(report)
 
     def _attempt(self, normal_force: float, slide: float, friction: bool,
-                 hold_height: bool = False) -> NewtonReport | None:
+                 hold_height: bool = False, predictor: bool = True) -> NewtonReport | None:
         """One Newton solve (arguments of :meth:`Equilibrium.solve`); restores the committed
         state if it fails. None past the step limit."""
         self.attempts += 1
         if self.attempts > self.case.solver.max_steps:
             return None
-        report = self.equilibrium.solve(normal_force, slide, friction, hold_height)
+        report = self.equilibrium.solve(normal_force, slide, friction, hold_height, predictor)
         if not report.converged:
             self._reject(report, friction)
         return report

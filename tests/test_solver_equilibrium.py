@@ -25,8 +25,8 @@ def test_a_converged_step_is_one_newton_increment_from_the_solution(monkeypatch)
     solve = Equilibrium.solve
     moves = []
 
-    def checked(self, normal_force, flat_slide, friction, hold_height=False):
-        report = solve(self, normal_force, flat_slide, friction, hold_height)
+    def checked(self, normal_force, flat_slide, friction, hold_height=False, predictor=True):
+        report = solve(self, normal_force, flat_slide, friction, hold_height, predictor)
         if report.converged and report.iterations > 0:
             self.assemble(flat_slide, friction)
             self.assemble_tangent(report.contact)

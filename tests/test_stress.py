@@ -90,11 +90,12 @@ def test_normal_only_and_unconverged_runs_report_the_preload_state():
 class ScriptedEquilibrium:
     """Stands in for solver.equilibrium.Equilibrium: Newton fails on the listed attempts (1, 2,
     ...), converges in 3 iterations otherwise, a held flat carrying the force aimed at; 4
-    surface nodes, all in contact, all slipping once the flat slides."""
+    surface nodes, all in contact, all slipping once the flat has slid beyond ``slip_from`` [m]."""
 
-    def __init__(self, failing):
-        self.failing, self.calls = set(failing), 0
+    def __init__(self, failing, slip_from=0.0):
+        self.failing, self.calls, self.slip_from = set(failing), 0, slip_from
         self.extrapolations = []  # ratios passed to extrapolate
+        self.predictors = []  # the predictor flag of each sliding attempt
         self.slopes, self.path_steps = 0, []  # path_slope calls, follow_path height changes
         self.flat_height = 0.0
         self.solid = types.SimpleNamespace(plastic_volume_fraction=lambda: 0.0)
@@ -106,13 +107,15 @@ class ScriptedEquilibrium:
             tangential_force=lambda contact: 0.5 * contact.fn if contact.slide else 0.0,
             count=lambda flags: int(np.count_nonzero(flags)))
 
-    def solve(self, normal_force, slide, friction, hold_height=False):
+    def solve(self, normal_force, slide, friction, hold_height=False, predictor=True):
         from roughfriction.solver.equilibrium import NewtonReport
 
         self.calls += 1
+        if friction:
+            self.predictors.append(predictor)
         contact = types.SimpleNamespace(fn=normal_force, slide=slide,
                                         in_contact=np.ones(4, bool),
-                                        slipping=np.full(4, slide > 0))
+                                        slipping=np.full(4, slide > self.slip_from))
         failed = self.calls in self.failing
         return NewtonReport(not failed, 3, 0, 1e-3, contact,
                             f"scripted failure {self.calls}" if failed else "")
@@ -177,6 +180,29 @@ def test_load_path_records_the_cuts_before_each_step_also_across_a_branch():
     assert [r.cuts for r in path.records[:7]] == [0, 2, 0, 0, 0, 0, 0]
     assert [r.cuts for r in path.records[7:9]] == [0, 1]
     assert sum(r.cuts for r in path.records) == path.attempts - len(path.records) == 3
+
+
+@pytest.mark.fem
+def test_sliding_steps_after_the_first_start_from_the_last_two_extrapolated():
+    """The first sliding step starts from the preload's state with the tangential predictor;
+    every later attempt, a retry after a cut too, starts from the last two sliding steps
+    extrapolated by its increment over the last accepted one, without the predictor."""
+    from roughfriction.solver.stepping import LoadPath
+
+    case = FemCase(Surface(np.zeros((4, 4)), SPACING, "flat"), Loading(0.5))
+    equilibrium = ScriptedEquilibrium(failing=())
+    path = LoadPath(equilibrium, case, 4 * SPACING, progress=lambda event: None)
+    assert path.preload(case.normal_force).converged
+    first = case.solver.first_slide * path.flat_block_slide
+    equilibrium.extrapolations.clear()
+    equilibrium.failing = {equilibrium.calls + 2}  # the second sliding attempt is cut
+    equilibrium.slip_from = 4.0 * first
+    assert path.slide().converged
+    # increments f, 1.5 f (cut), 0.75 f, 1.125 f, 1.6875 f: slides f, 1.75 f, 2.875 f, 4.5625 f
+    slides = [record.slide / first for record in path.records if record.phase == "tangential"]
+    np.testing.assert_allclose(slides, [1.0, 1.75, 2.875, 4.5625])
+    np.testing.assert_allclose(equilibrium.extrapolations, [1.5, 0.75, 1.5, 1.5])
+    assert equilibrium.predictors == [True, False, False, False, False]
 
 
 # --- classification --------------------------------------------------------------------------
