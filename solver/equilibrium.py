@@ -163,9 +163,8 @@ class Equilibrium:
         for form in solid.elastic_tangent_forms:
             fem_petsc.assemble_matrix(self._elastic_tangent, form)
         self._elastic_tangent.assemble()
-        self._tangent_full = self._elastic_tangent.duplicate(copy=True)
         self._residual_full = fem_petsc.create_vector(solid.residual_forms[0])
-        self._solid_tangent = None  # P^T K P, created at the first assembly
+        self._elastic_system = None  # P^T K_elastic P in the system's pattern, at first assembly
         self.tangent = None  # P^T K P + contact, created at the first assembly
         self._symmetric = True  # the tangent, at its last assembly
         self._coupled = False  # some slipping point's cap followed its pressure there
@@ -232,33 +231,48 @@ class Equilibrium:
         return contact
 
     def assemble_tangent(self, contact: ContactResponse) -> None:
-        """K = P^T (K_elastic + K_plastic) P plus the contact's 3 x 3 blocks of each surface node
-        and its 25 neighbours, at the iterate of the last :meth:`assemble` (whose ``contact``
-        response is passed). The contact reaches 2 surface nodes, beyond the solid's couplings,
-        so K is a matrix with both patterns, preallocated once (:meth:`_system_matrix`), into
-        which P^T K P is added (MatAXPY into a preallocated subset pattern; adding a separate
-        contact matrix of another pattern leaks memory in PETSc 3.18).
+        """K = P^T K_elastic P + P^T K_plastic P plus the contact's 3 x 3 blocks of each surface
+        node and its 25 neighbours, at the iterate of the last :meth:`assemble` (whose
+        ``contact`` response is passed).
+
+        The reduced elastic part is built once, in a matrix with the contact's pattern as well
+        (:meth:`_system_matrix`), and copied at each assembly. The plastic correction is
+        assembled and reduced on the couplings of the yielding cells alone, and it and the
+        blocks of the nodes that touch are added row by row: the work follows the plastic and
+        contact zones, not the mesh.
         """
-        self._elastic_tangent.copy(self._tangent_full,
-                                   structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
-        plastic = self.solid.plastic_tangent_form()
-        if plastic is not None:
-            fem_petsc.assemble_matrix(self._tangent_full, plastic)
-        self._tangent_full.assemble()
-        self._solid_tangent = self.reduction.reduce_matrix(self._tangent_full,
-                                                           self._solid_tangent)
         if self.tangent is None:
-            self.tangent = self._system_matrix(self._solid_tangent)
+            elastic = self.reduction.reduce_matrix(self._elastic_tangent)
+            self._elastic_system = self._system_matrix(elastic)
+            self._elastic_system.axpy(1.0, elastic,
+                                      structure=PETSc.Mat.Structure.SUBSET_NONZERO_PATTERN)
+            elastic.destroy()
+            self.tangent = self._elastic_system.duplicate(copy=False)
             if self._near_nullspace is not None:
                 self.tangent.setNearNullSpace(self._near_nullspace)
-        self.tangent.zeroEntries()
-        self.tangent.axpy(1.0, self._solid_tangent,
-                          structure=PETSc.Mat.Structure.SUBSET_NONZERO_PATTERN)
-        # one block row (3 x 75 values, row-major) per owned surface node
+        self._elastic_system.copy(self.tangent,
+                                  structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
+        plastic = self.solid.plastic_tangent_form()
+        if plastic is not None:  # a matrix with the yielding cells' couplings only
+            correction = fem_petsc.assemble_matrix(plastic)
+            correction.assemble()
+            reduced = self.reduction.reduce_matrix(correction)
+            row_pointer, columns, values = reduced.getValuesCSR()
+            rows = np.flatnonzero(np.diff(row_pointer))
+            if len(rows):  # (petsc4py divides by the number of values)
+                self.tangent.setValuesIJV(
+                    np.append(row_pointer[rows], row_pointer[-1]), columns,
+                    values, addv=PETSc.InsertMode.ADD_VALUES,
+                    rowmap=(rows + reduced.getOwnershipRange()[0]).astype(PETSc.IntType))
+            correction.destroy()
+            reduced.destroy()
+        # one block row (3 x 75 values, row-major) per owned surface node with any stiffness
         blocks = contact.node_stiffness[self.flat.owned_grid].transpose(0, 2, 1, 3)
-        self.tangent.setValuesBlockedRCV(self._contact_rows[:, :1] // 3, self._contact_columns,
-                                         blocks.reshape(len(blocks), -1),
-                                         addv=PETSc.InsertMode.ADD_VALUES)
+        touching = np.flatnonzero(np.any(blocks, axis=(1, 2, 3)))
+        if len(touching):
+            self.tangent.setValuesBlockedRCV(
+                self._contact_rows[touching, :1] // 3, self._contact_columns[touching],
+                blocks[touching].reshape(len(touching), -1), addv=PETSc.InsertMode.ADD_VALUES)
         self.tangent.assemble()
         self._symmetric = self.comm.allreduce(contact.symmetric, op=MPI.LAND)
         self._coupled = self.comm.allreduce(contact.coupled, op=MPI.LOR)
@@ -563,8 +577,8 @@ class Equilibrium:
         not free objects that reference each other, so a batch of runs in one process would
         keep every finished run's memory. The model is unusable afterwards."""
         committed = [self._committed[0]] + ([self._previous[0]] if self._previous else [])
-        for item in (self.displacement, *committed, self._elastic_tangent, self._tangent_full,
-                     self._residual_full, self._solid_tangent, self.tangent, self.residual,
+        for item in (self.displacement, *committed, self._elastic_tangent, self._elastic_system,
+                     self._residual_full, self.tangent, self.residual,
                      self._height_column, self._force_row, self._x1, self._x2,
                      self._path_tangent, self._near_nullspace):
             if item is not None:
