@@ -598,10 +598,9 @@ class Equilibrium:
     def extrapolate(self, ratio: float) -> None:
         """First iterate of the next step: the last two converged steps extrapolated linearly,
         u = u_c + ratio (u_c - u_p) and the same for h, where ``ratio`` is the next load
-        increment over the last one [-]. A load step's contact set then starts close to its
-        final one instead of at the last step's (G5, N = 32, preload steps 3-5: 15-16 Newton
-        iterations -> 7-8). The caller says when the last two steps belong to one monotonic
-        path (:meth:`resume` forgets the older one)."""
+        increment over the last one [-]: the step's contact and slip sets then start close to
+        their final ones. The caller says when the last two steps belong to one monotonic path
+        (:meth:`resume` forgets the older one)."""
         (displacement, height), (older, older_height) = self._committed, self._previous
         displacement.copy(self.displacement)
         self.displacement.axpy(ratio, displacement)
