@@ -70,6 +70,10 @@ FORCING_MAX = 1e-3
 #: Equations, 1995, Sec. 6.3) [-].
 FORCING_SAFEGUARD = 0.5
 FORCING_SAFEGUARD_MAX = 0.1
+#: Above this fraction of the cells yielding, the plastic correction is reduced with the elastic
+#: part on the whole mesh (P^T K P with its pattern reused), below it on the yielding cells'
+#: couplings alone (whose cost grows with them; measured crossover 15-20 % at N = 64) [-].
+WHOLE_MESH_YIELDING = 0.15
 #: Relative Krylov tolerance of the path tangent du/dh (:meth:`Equilibrium.path_slope`): a
 #: predictor, which Newton corrects [-].
 PATH_SLOPE_TOLERANCE = 1e-4
@@ -165,6 +169,8 @@ class Equilibrium:
         self._elastic_tangent.assemble()
         self._residual_full = fem_petsc.create_vector(solid.residual_forms[0])
         self._elastic_system = None  # P^T K_elastic P in the system's pattern, at first assembly
+        self._tangent_full = None  # K_elastic + K_plastic on the whole mesh, once needed
+        self._solid_tangent = None  # its P^T K P
         self.tangent = None  # P^T K P + contact, created at the first assembly
         self._symmetric = True  # the tangent, at its last assembly
         self._coupled = False  # some slipping point's cap followed its pressure there
@@ -236,10 +242,10 @@ class Equilibrium:
         ``contact`` response is passed).
 
         The reduced elastic part is built once, in a matrix with the contact's pattern as well
-        (:meth:`_system_matrix`), and copied at each assembly. The plastic correction is
-        assembled and reduced on the couplings of the yielding cells alone, and it and the
-        blocks of the nodes that touch are added row by row: the work follows the plastic and
-        contact zones, not the mesh.
+        (:meth:`_system_matrix`), and copied at each assembly. While few cells yield
+        (``WHOLE_MESH_YIELDING``), the plastic correction is assembled and reduced on their
+        couplings alone and added row by row; else the whole tangent is reduced on the whole
+        mesh. The blocks of the nodes that touch are added row by row.
         """
         if self.tangent is None:
             elastic = self.reduction.reduce_matrix(self._elastic_tangent)
@@ -250,22 +256,14 @@ class Equilibrium:
             self.tangent = self._elastic_system.duplicate(copy=False)
             if self._near_nullspace is not None:
                 self.tangent.setNearNullSpace(self._near_nullspace)
-        self._elastic_system.copy(self.tangent,
-                                  structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
         plastic = self.solid.plastic_tangent_form()
-        if plastic is not None:  # a matrix with the yielding cells' couplings only
-            correction = fem_petsc.assemble_matrix(plastic)
-            correction.assemble()
-            reduced = self.reduction.reduce_matrix(correction)
-            row_pointer, columns, values = reduced.getValuesCSR()
-            rows = np.flatnonzero(np.diff(row_pointer))
-            if len(rows):  # (petsc4py divides by the number of values)
-                self.tangent.setValuesIJV(
-                    np.append(row_pointer[rows], row_pointer[-1]), columns,
-                    values, addv=PETSc.InsertMode.ADD_VALUES,
-                    rowmap=(rows + reduced.getOwnershipRange()[0]).astype(PETSc.IntType))
-            correction.destroy()
-            reduced.destroy()
+        if plastic is not None and self.solid.yielding_fraction() > WHOLE_MESH_YIELDING:
+            self._reduce_whole_mesh(plastic)
+        else:
+            self._elastic_system.copy(self.tangent,
+                                      structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
+            if plastic is not None:
+                self._add_plastic_correction(plastic)
         # one block row (3 x 75 values, row-major) per owned surface node with any stiffness
         blocks = contact.node_stiffness[self.flat.owned_grid].transpose(0, 2, 1, 3)
         touching = np.flatnonzero(np.any(blocks, axis=(1, 2, 3)))
@@ -276,6 +274,38 @@ class Equilibrium:
         self.tangent.assemble()
         self._symmetric = self.comm.allreduce(contact.symmetric, op=MPI.LAND)
         self._coupled = self.comm.allreduce(contact.coupled, op=MPI.LOR)
+
+    def _add_plastic_correction(self, plastic) -> None:
+        """Add P^T K_plastic P to the tangent, assembled and reduced on the couplings of the
+        yielding cells (the ``plastic`` form's cells) alone, row by row."""
+        correction = fem_petsc.assemble_matrix(plastic)
+        correction.assemble()
+        reduced = self.reduction.reduce_matrix(correction)
+        row_pointer, columns, values = reduced.getValuesCSR()
+        rows = np.flatnonzero(np.diff(row_pointer))
+        if len(rows):  # (petsc4py divides by the number of values)
+            self.tangent.setValuesIJV(
+                np.append(row_pointer[rows], row_pointer[-1]), columns, values,
+                addv=PETSc.InsertMode.ADD_VALUES,
+                rowmap=(rows + reduced.getOwnershipRange()[0]).astype(PETSc.IntType))
+        correction.destroy()
+        reduced.destroy()
+
+    def _reduce_whole_mesh(self, plastic) -> None:
+        """Set the tangent to P^T (K_elastic + K_plastic) P, assembled and reduced on the whole
+        mesh (matrices kept, P^T K P's pattern reused)."""
+        if self._tangent_full is None:
+            self._tangent_full = self._elastic_tangent.duplicate(copy=True)
+        else:
+            self._elastic_tangent.copy(self._tangent_full,
+                                       structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
+        fem_petsc.assemble_matrix(self._tangent_full, plastic)
+        self._tangent_full.assemble()
+        self._solid_tangent = self.reduction.reduce_matrix(self._tangent_full,
+                                                           self._solid_tangent)
+        self.tangent.zeroEntries()
+        self.tangent.axpy(1.0, self._solid_tangent,
+                          structure=PETSc.Mat.Structure.SUBSET_NONZERO_PATTERN)
 
     def _system_matrix(self, solid: PETSc.Mat) -> PETSc.Mat:
         """A zero matrix with the nonzeros of ``solid`` (P^T K P) and of the contact blocks: the
@@ -578,7 +608,8 @@ class Equilibrium:
         keep every finished run's memory. The model is unusable afterwards."""
         committed = [self._committed[0]] + ([self._previous[0]] if self._previous else [])
         for item in (self.displacement, *committed, self._elastic_tangent, self._elastic_system,
-                     self._residual_full, self.tangent, self.residual,
+                     self._tangent_full, self._solid_tangent, self._residual_full, self.tangent,
+                     self.residual,
                      self._height_column, self._force_row, self._x1, self._x2,
                      self._path_tangent, self._near_nullspace):
             if item is not None:

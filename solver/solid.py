@@ -129,14 +129,24 @@ class Solid:
         """The plastic correction of the consistent tangent,
         (2 G (beta - 1) dev eps(du) - 2 G gamma (n : eps(du)) n, eps(v)), over the owned cells with
         a yielding Gauss point in the last stress update; None if there is none on any rank."""
-        yielding = self.response.yielding.reshape(self.num_cells, self.num_points).any(axis=1)
-        cells = np.flatnonzero(yielding).astype(np.int32)
+        cells = self.yielding_cells()
         if self._mesh.comm.allreduce(len(cells), op=MPI.SUM) == 0:
             return None
         tags = dolfinx_mesh.meshtags(self._mesh, 3, cells, np.ones(len(cells), dtype=np.int32))
         dx_plastic = ufl.Measure("dx", domain=self._mesh, subdomain_data=tags, subdomain_id=1,
                                  metadata=self._dev_metadata)
         return fem.form(ufl.inner(self._correction, self._test_strain) * dx_plastic)
+
+    def yielding_cells(self) -> np.ndarray:
+        """Owned cells with a yielding Gauss point in the last stress update (int32)."""
+        yielding = self.response.yielding.reshape(self.num_cells, self.num_points).any(axis=1)
+        return np.flatnonzero(yielding).astype(np.int32)
+
+    def yielding_fraction(self) -> float:
+        """Fraction of all cells (every rank) with a yielding Gauss point [-]."""
+        comm = self._mesh.comm
+        return (comm.allreduce(len(self.yielding_cells()), op=MPI.SUM)
+                / comm.allreduce(self.num_cells, op=MPI.SUM))
 
     def update_stress(self) -> J2Response:
         """Return-map the current displacement from the committed state; fill the quadrature

@@ -170,12 +170,16 @@ def test_the_bordered_newton_direction_meets_its_krylov_tolerance(monkeypatch):
     assert max(ratios) <= 2.0, f"linear residual {max(ratios):.3g} x the forcing term"
 
 
-def test_the_tangent_is_the_reduced_solid_tangent_plus_the_contact_blocks(monkeypatch):
+@pytest.mark.parametrize("whole_mesh_yielding", [1.0, 0.0])
+def test_the_tangent_is_the_reduced_solid_tangent_plus_the_contact_blocks(monkeypatch,
+                                                                         whole_mesh_yielding):
     """At every Newton iteration of a random 16 x 16 surface's preload and sliding (yielding
     cells and touching nodes from the first steps on), the system matrix built from the reduced
-    elastic part, the plastic correction reduced on its own cells and the blocks of the touching
-    nodes equals P^T (K_elastic + K_plastic) P plus the blocks of every surface node, assembled
-    on the full mesh, to round-off."""
+    elastic part, the plastic correction reduced on its own cells (or, with any cell yielding,
+    the whole tangent reduced on the whole mesh) and the blocks of the touching nodes equals
+    P^T (K_elastic + K_plastic) P plus the blocks of every surface node, assembled on the full
+    mesh, to round-off."""
+    monkeypatch.setattr(equilibrium_module, "WHOLE_MESH_YIELDING", whole_mesh_yielding)
     from dolfinx.fem import petsc as fem_petsc
 
     assemble_tangent = Equilibrium.assemble_tangent
