@@ -113,7 +113,7 @@ class ContactResponse:
     node_force : numpy.ndarray
         Contact contribution to the nodal residual R [N], shape (N^2, 3).
     stiffness : callable
-        Computes :attr:`node_stiffness` (once, when a linear solve needs it).
+        Computes :attr:`node_blocks` (once, when a linear solve needs it).
     node_height_derivative : numpy.ndarray
         dR_a/dh [N/m], shape (N^2, 3).
     coupled : bool
@@ -139,10 +139,19 @@ class ContactResponse:
     symmetric: bool
 
     @cached_property
-    def node_stiffness(self) -> np.ndarray:
-        """dR_a/du_b [N/m] for the 25 neighbours b of node a (``NEIGHBOURS``; a neighbour met
-        twice on a grid smaller than 5 holds its block once), shape (N^2, 25, 3, 3)."""
+    def node_blocks(self) -> tuple[np.ndarray, np.ndarray]:
+        """The nodes a with any contact stiffness (grid node i N + j, ascending) and their
+        dR_a/du_b [N/m] for the 25 neighbours b (``NEIGHBOURS``; a neighbour met twice on a
+        grid smaller than 5 holds its block once), shape (m, 25, 3, 3)."""
         return self.stiffness()
+
+    @property
+    def node_stiffness(self) -> np.ndarray:
+        """:attr:`node_blocks` of every node (zero where there is none), (N^2, 25, 3, 3)."""
+        nodes, blocks = self.node_blocks
+        stiffness = np.zeros((len(self.node_gap),) + blocks.shape[1:])
+        stiffness[nodes] = blocks
+        return stiffness
 
 
 class RigidFlat:
@@ -347,18 +356,26 @@ class RigidFlat:
             symmetric=not np.any(coupling),
         )
 
-    def _node_tangent(self, blocks: np.ndarray) -> np.ndarray:
-        """K_ab [N/m] of every node a and its 25 neighbours b (``NEIGHBOURS``), shape
-        (N^2, 25, 3, 3), from the 3 x 3 component matrices (N^2 x N^2 sparse, per unit area
-        [Pa/m]; None for zero) in ``blocks``."""
-        n2 = self.grid_size**2
-        rows = np.repeat(np.arange(n2), len(NEIGHBOURS))
-        tangent = np.zeros((n2, len(NEIGHBOURS), 3, 3))
+    def _node_tangent(self, blocks: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The nodes a with a nonzero row in any of the 3 x 3 component matrices ``blocks``
+        (N^2 x N^2 sparse, per unit area [Pa/m]; None for zero) and their K_ab [N/m] with the
+        25 neighbours b (``NEIGHBOURS``), shape (m, 25, 3, 3)."""
+        matrices = {}
+        stiff = np.zeros(self.grid_size**2, dtype=bool)
         for (i, j), matrix in np.ndenumerate(blocks):
             if matrix is not None:
-                values = sparse.csr_matrix(matrix)[rows, self._neighbours.ravel()]
-                tangent[:, :, i, j] = np.asarray(values).reshape(n2, -1)
-        return tangent * self._first_neighbour[:, :, None, None] * self.spacing**2
+                matrix = sparse.csr_matrix(matrix)
+                matrix.eliminate_zeros()
+                stiff |= np.diff(matrix.indptr) > 0
+                matrices[i, j] = matrix
+        nodes = np.flatnonzero(stiff)
+        rows = np.repeat(nodes, len(NEIGHBOURS))
+        columns = self._neighbours[nodes].ravel()
+        tangent = np.zeros((3, 3, len(nodes), len(NEIGHBOURS)))  # component-major: contiguous
+        for (i, j), matrix in matrices.items():
+            tangent[i, j] = np.asarray(matrix[rows, columns]).reshape(len(nodes), -1)
+        tangent *= self._first_neighbour * self.spacing**2
+        return nodes, tangent.transpose(2, 3, 0, 1)
 
     def shear_cap(self, pressure: np.ndarray) -> np.ndarray:
         """c = tau_c min(1, p / p_r) [Pa] (tau_c if p_r = 0) at the pressures ``pressure``

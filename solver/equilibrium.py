@@ -201,6 +201,8 @@ class Equilibrium:
         self._contact_rows = (3 * node_reduced[flat.owned_grid][:, None]
                               + np.arange(3)).astype(PETSc.IntType)
         self._contact_columns = node_reduced[neighbours].astype(PETSc.IntType)
+        self._owned_position = np.full(n * n, -1)  # grid node -> owned surface node, or -1
+        self._owned_position[flat.owned_grid] = np.arange(len(flat.owned_grid))
 
     # --- assembly -------------------------------------------------------------------------
 
@@ -265,12 +267,15 @@ class Equilibrium:
             if plastic is not None:
                 self._add_plastic_correction(plastic)
         # one block row (3 x 75 values, row-major) per owned surface node with any stiffness
-        blocks = contact.node_stiffness[self.flat.owned_grid].transpose(0, 2, 1, 3)
-        touching = np.flatnonzero(np.any(blocks, axis=(1, 2, 3)))
-        if len(touching):
+        nodes, blocks = contact.node_blocks
+        owned = self._owned_position[nodes]
+        touching = owned >= 0
+        if np.any(touching):
+            owned = owned[touching]
             self.tangent.setValuesBlockedRCV(
-                self._contact_rows[touching, :1] // 3, self._contact_columns[touching],
-                blocks[touching].reshape(len(touching), -1), addv=PETSc.InsertMode.ADD_VALUES)
+                self._contact_rows[owned, :1] // 3, self._contact_columns[owned],
+                blocks[touching].transpose(0, 2, 1, 3).reshape(len(owned), -1),
+                addv=PETSc.InsertMode.ADD_VALUES)
         self.tangent.assemble()
         self._symmetric = self.comm.allreduce(contact.symmetric, op=MPI.LAND)
         self._coupled = self.comm.allreduce(contact.coupled, op=MPI.LOR)

@@ -267,3 +267,40 @@ def test_touching_height_carries_the_force_with_springs_at_the_nodes():
     assert 0.0 < h < tops.max()
     stiffness = 1.0 / (1.0 / (PENALTY * SPACING**2) + 0.95 / (2.2e11 * SPACING))
     assert np.sum(stiffness * np.maximum(tops - h, 0.0)) == pytest.approx(force)
+
+
+def test_nodal_tangent_of_a_partial_contact_is_held_for_the_stiff_nodes_only():
+    """One peak of an 8 x 8 grid in contact, sliding: node_blocks holds the nodes within two
+    grid steps of it (no others), and every node's row of node_stiffness, those left out
+    included, matches central differences of the nodal residual."""
+    n, pressure = 8, 1e9
+    heights = np.zeros((n, n))
+    heights[3, 4] = 2 * pressure / PENALTY  # the peak: the flat touches its tributary area only
+    i, j = np.divmod(np.arange(n * n), n)
+    flat = RigidFlat(MPI.COMM_SELF, np.arange(n * n), np.column_stack([i, j]), n,
+                     heights.ravel(), SPACING, PENALTY, TAU_C, RAMP, 0.1 * PENALTY)
+    flat.anchored[:] = True
+    rng = np.random.default_rng(3)
+    u0 = rng.normal(size=(n * n, 3)) * 1e-3 * pressure / PENALTY
+    height, flat_slide = heights[3, 4] - pressure / PENALTY, 2 * TAU_C / PENALTY
+    response = flat.respond(u0, height, flat_slide, friction=True)
+    assert 0 < np.count_nonzero(response.in_contact) < response.in_contact.size
+    nodes, _ = response.node_blocks
+    near = [((3 + di) % n) * n + (4 + dj) % n for di in range(-2, 3) for dj in range(-2, 3)]
+    assert set(nodes) <= set(near) and 3 * n + 4 in nodes
+
+    step = 1e-5 * pressure / PENALTY  # [m]
+    jacobian = np.zeros((n * n, 3, n * n, 3))  # dR_a/du_b by central differences
+    for b in range(n * n):
+        for c in range(3):
+            e = np.zeros_like(u0)
+            e[b, c] = step
+            forward = flat.respond(u0 + e, height, flat_slide, friction=True).node_force
+            backward = flat.respond(u0 - e, height, flat_slide, friction=True).node_force
+            jacobian[:, :, b, c] = (forward - backward) / (2 * step)
+    neighbours = ((i[:, None] + NEIGHBOURS[:, 0]) % n) * n + (j[:, None] + NEIGHBOURS[:, 1]) % n
+    tangent = np.zeros_like(jacobian)
+    for a in range(n * n):
+        tangent[a, :, neighbours[a], :] = response.node_stiffness[a]
+    scale = PENALTY * SPACING**2
+    np.testing.assert_allclose(tangent, jacobian, rtol=1e-5, atol=1e-7 * scale)
