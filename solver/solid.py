@@ -87,9 +87,8 @@ class Solid:
         self._strain_deviator = fem.Expression(ufl.dev(strain(self.displacement)), points)
 
         self.committed = J2State.virgin(self.num_cells * self.num_points)
-        self.response = radial_return(np.zeros((self.num_cells * self.num_points, 3, 3)),
-                                      self.committed, material, elastic)
-        self._write_quadrature(self.response)
+        self._set_response(radial_return(np.zeros((self.num_cells * self.num_points, 3, 3)),
+                                         self.committed, material, elastic))
 
         dx_dev = ufl.dx(metadata={"quadrature_degree": DEVIATORIC_DEGREE,
                                   "quadrature_scheme": "default"})
@@ -129,9 +128,9 @@ class Solid:
         """The plastic correction of the consistent tangent,
         (2 G (beta - 1) dev eps(du) - 2 G gamma (n : eps(du)) n, eps(v)), over the owned cells with
         a yielding Gauss point in the last stress update; None if there is none on any rank."""
-        cells = self.yielding_cells()
-        if self._mesh.comm.allreduce(len(cells), op=MPI.SUM) == 0:
+        if self.yielding_fraction() == 0.0:
             return None
+        cells = self.yielding_cells()
         tags = dolfinx_mesh.meshtags(self._mesh, 3, cells, np.ones(len(cells), dtype=np.int32))
         dx_plastic = ufl.Measure("dx", domain=self._mesh, subdomain_data=tags, subdomain_id=1,
                                  metadata=self._dev_metadata)
@@ -139,23 +138,34 @@ class Solid:
 
     def yielding_cells(self) -> np.ndarray:
         """Owned cells with a yielding Gauss point in the last stress update (int32)."""
-        yielding = self.response.yielding.reshape(self.num_cells, self.num_points).any(axis=1)
-        return np.flatnonzero(yielding).astype(np.int32)
+        if self._yielding_cells is None:
+            yielding = self.response.yielding.reshape(self.num_cells, self.num_points).any(axis=1)
+            self._yielding_cells = np.flatnonzero(yielding).astype(np.int32)
+        return self._yielding_cells
 
     def yielding_fraction(self) -> float:
-        """Fraction of all cells (every rank) with a yielding Gauss point [-]."""
-        comm = self._mesh.comm
-        return (comm.allreduce(len(self.yielding_cells()), op=MPI.SUM)
-                / comm.allreduce(self.num_cells, op=MPI.SUM))
+        """Fraction of all cells (every rank) with a yielding Gauss point in the last stress
+        update [-]."""
+        if self._yielding_fraction is None:
+            self._yielding_fraction = (
+                self._mesh.comm.allreduce(len(self.yielding_cells()), op=MPI.SUM)
+                / self._mesh.topology.index_map(3).size_global)
+        return self._yielding_fraction
 
     def update_stress(self) -> J2Response:
         """Return-map the current displacement from the committed state; fill the quadrature
         functions the forms read. The result is a trial: :meth:`commit` accepts it."""
         strain_deviator = self._strain_deviator.eval(self._cells).reshape(-1, 3, 3)
-        self.response = radial_return(strain_deviator, self.committed, self.material,
-                                      self.elastic)
-        self._write_quadrature(self.response)
+        self._set_response(radial_return(strain_deviator, self.committed, self.material,
+                                         self.elastic))
         return self.response
+
+    def _set_response(self, response: J2Response) -> None:
+        """Make ``response`` the current stress update: quadrature functions filled, the
+        yielding cells to be counted anew."""
+        self.response = response
+        self._yielding_cells = self._yielding_fraction = None
+        self._write_quadrature(response)
 
     def commit(self) -> None:
         """Accept the last stress update as the history of a converged step."""

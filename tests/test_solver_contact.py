@@ -16,11 +16,12 @@ N = 4  # faces per side
 
 
 def flat_over(heights=None, ramp=RAMP, tangential=PENALTY, points=2):
-    """A flat over an N x N grid of surface nodes whose displacement rows are the grid nodes
-    i N + j (``heights``: N x N [m], default flat; ``tangential``: eps_T [Pa/m])."""
+    """A flat over an n x n grid of surface nodes whose displacement rows are the grid nodes
+    i n + j (``heights``: n x n [m], default an N x N flat; ``tangential``: eps_T [Pa/m])."""
     heights = np.zeros((N, N)) if heights is None else np.asarray(heights, float)
-    i, j = np.divmod(np.arange(N * N), N)
-    return RigidFlat(MPI.COMM_SELF, np.arange(N * N), np.column_stack([i, j]), N,
+    n = len(heights)
+    i, j = np.divmod(np.arange(n * n), n)
+    return RigidFlat(MPI.COMM_SELF, np.arange(n * n), np.column_stack([i, j]), n,
                      heights.ravel(), SPACING, PENALTY, TAU_C, ramp, tangential, points)
 
 
@@ -276,10 +277,7 @@ def test_nodal_tangent_of_a_partial_contact_is_held_for_the_stiff_nodes_only():
     n, pressure = 8, 1e9
     heights = np.zeros((n, n))
     heights[3, 4] = 2 * pressure / PENALTY  # the peak: the flat touches its tributary area only
-    i, j = np.divmod(np.arange(n * n), n)
-    flat = RigidFlat(MPI.COMM_SELF, np.arange(n * n), np.column_stack([i, j]), n,
-                     heights.ravel(), SPACING, PENALTY, TAU_C, RAMP, 0.1 * PENALTY)
-    flat.anchored[:] = True
+    flat = anchored(flat_over(heights, tangential=0.1 * PENALTY))
     rng = np.random.default_rng(3)
     u0 = rng.normal(size=(n * n, 3)) * 1e-3 * pressure / PENALTY
     height, flat_slide = heights[3, 4] - pressure / PENALTY, 2 * TAU_C / PENALTY
@@ -298,6 +296,7 @@ def test_nodal_tangent_of_a_partial_contact_is_held_for_the_stiff_nodes_only():
             forward = flat.respond(u0 + e, height, flat_slide, friction=True).node_force
             backward = flat.respond(u0 - e, height, flat_slide, friction=True).node_force
             jacobian[:, :, b, c] = (forward - backward) / (2 * step)
+    i, j = np.divmod(np.arange(n * n), n)
     neighbours = ((i[:, None] + NEIGHBOURS[:, 0]) % n) * n + (j[:, None] + NEIGHBOURS[:, 1]) % n
     tangent = np.zeros_like(jacobian)
     for a in range(n * n):
