@@ -341,7 +341,8 @@ class Equilibrium:
     # --- Newton -----------------------------------------------------------------------------
 
     def solve(self, normal_force: float, flat_slide: float, friction: bool,
-              hold_height: bool = False, predictor: bool = True) -> NewtonReport:
+              hold_height: bool = False, predictor: bool = True, marks_path: bool = False
+              ) -> NewtonReport:
         """One load step: Newton solves with Uzawa updates of the contact multipliers until no
         contact node penetrates deeper than the tolerance.
 
@@ -356,12 +357,14 @@ class Equilibrium:
         hold_height : bool
             Keep the flat at its current height h (displacement control: one linear solve per
             Newton iteration, and no limit point while a few yielding peaks carry the flat)
-            instead of solving for the h that carries ``normal_force``. Such a step (an
-            intermediate step of the preload) ends at the looser Newton tolerances of the solves
-            between Uzawa updates.
+            instead of solving for the h that carries ``normal_force``.
         predictor : bool
             A tangential step's first solve starts with the tangential predictor (False: the
             caller has placed a first iterate, :meth:`extrapolate`).
+        marks_path : bool
+            The step only marks the loading path to the state that is reported (a held preload
+            step, a sliding step before inception): it ends at the looser Newton tolerances of
+            the solves between Uzawa updates.
         """
         self._hold_height = hold_height
         options = self.options
@@ -369,7 +372,7 @@ class Equilibrium:
         tight = (options.residual_tolerance, options.increment_tolerance)
         tolerances = (max(tight[0], UZAWA_RESIDUAL_TOLERANCE),
                       max(tight[1], UZAWA_INCREMENT_TOLERANCE))
-        if hold_height:  # a held step only marks the loading path: no solve to tight tolerances
+        if marks_path:
             tight = tolerances
         iterations = krylov = updates = solves = 0
         while True:

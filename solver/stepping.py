@@ -9,6 +9,7 @@ the last converged step). A step smaller than ``MIN_FRACTION`` of the first one,
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from dataclasses import dataclass
 
@@ -136,7 +137,8 @@ class LoadPath:
         the flat, force control has a limit point where Newton stalls): the first from the
         spring estimate of :meth:`Equilibrium.place_flat`, the next ones along the path tangent
         (:meth:`_aim_height`, which falls short of its aim). A held step that carries more than
-        ``target`` is cut. The last step, to ``target``, is force-controlled.
+        ``target`` is cut. Held steps end at the looser tolerances of a step that marks the
+        path (:meth:`Equilibrium.solve`). The last step, to ``target``, is force-controlled.
         """
         options = self.case.solver
         largest = 1.0 if options.elastic else MAX_PRELOAD_INCREMENT  # elastic: path-free
@@ -156,7 +158,7 @@ class LoadPath:
                 self._aim_height(aim)
             elif last is not None:
                 equilibrium.extrapolate((aim - self.normal_force) / last)
-            report = self._attempt(aim, 0.0, friction=False, hold_height=hold)
+            report = self._attempt(aim, 0.0, friction=False, hold_height=hold, marks_path=hold)
             if report is None:
                 return Outcome(False, f"step limit reached during preload at F_n = {start:.4g}"
                                       " x target")
@@ -194,7 +196,9 @@ class LoadPath:
         slips. The first step starts from the preload's state with the tangential predictor
         (:meth:`RigidFlat.respond`); every later one from the last two steps extrapolated by
         its increment (:meth:`Equilibrium.extrapolate`), so that its slip and contact sets
-        start close to their final ones."""
+        start close to their final ones. A step only marks the path (looser tolerances,
+        :meth:`Equilibrium.solve`) until every contact node slips; that step, whose forces give
+        mu_s, is then solved on to the solver's tolerances (:meth:`_tighten`)."""
         target = self.normal_force
         scale = self.flat_block_slide
         size = StepSize(self.case.solver.first_slide * scale, MAX_SLIDE_INCREMENT * scale)
@@ -204,7 +208,10 @@ class LoadPath:
             trial = slide + size.value
             if last is not None:
                 self.equilibrium.extrapolate(size.value / last)
-            report = self._attempt(target, trial, friction=True, predictor=last is None)
+            report = self._attempt(target, trial, friction=True, predictor=last is None,
+                                   marks_path=True)
+            if report is not None and report.converged and self._slips(report.contact):
+                report = self._tighten(report, target, trial)
             if report is None:
                 return Outcome(False, f"step limit reached while sliding at u_x = {slide:.4g} m")
             if not report.converged:
@@ -213,26 +220,46 @@ class LoadPath:
                                           f" m ({report.reason})")
                 continue
             last, slide = trial - slide, trial
-            record = self._accept("tangential", report, slide)
-            if record.slipping_nodes == record.contact_nodes > 0:
+            self._accept("tangential", report, slide)
+            if self._slips(report.contact):
                 return Outcome(True)
             if slide > self.case.solver.max_slide * scale:
                 return Outcome(False, f"no sliding inception up to u_x = {slide:.4g} m "
-                                      f"({record.slipping_nodes} of {record.contact_nodes} "
-                                      "contact nodes slip)")
+                                      f"({self.records[-1].slipping_nodes} of "
+                                      f"{self.records[-1].contact_nodes} contact nodes slip)")
             size.after(report)
 
     def _attempt(self, normal_force: float, slide: float, friction: bool,
-                 hold_height: bool = False, predictor: bool = True) -> NewtonReport | None:
+                 hold_height: bool = False, predictor: bool = True, marks_path: bool = False
+                 ) -> NewtonReport | None:
         """One Newton solve (arguments of :meth:`Equilibrium.solve`); restores the committed
         state if it fails. None past the step limit."""
         self.attempts += 1
         if self.attempts > self.case.solver.max_steps:
             return None
-        report = self.equilibrium.solve(normal_force, slide, friction, hold_height, predictor)
+        report = self.equilibrium.solve(normal_force, slide, friction, hold_height, predictor,
+                                        marks_path)
         if not report.converged:
             self._reject(report, friction)
         return report
+
+    def _slips(self, contact: ContactResponse) -> bool:
+        """Sliding inception: every contact node slips (and some node touches)."""
+        maps = self.equilibrium.flat.node_maps(contact)
+        return 0 < np.count_nonzero(maps["slip"]) == np.count_nonzero(maps["contact"])
+
+    def _tighten(self, report: NewtonReport, normal_force: float, slide: float
+                 ) -> NewtonReport:
+        """Solve a sliding step that converged at the looser tolerances of a path step on, from
+        where it ended, to the solver's tolerances; the report counts the iterations of both
+        (restores the committed state if it fails)."""
+        final = self.equilibrium.solve(normal_force, slide, True, predictor=False)
+        final = dataclasses.replace(
+            final, iterations=report.iterations + final.iterations,
+            krylov_iterations=report.krylov_iterations + final.krylov_iterations)
+        if not final.converged:
+            self._reject(final, friction=True)
+        return final
 
     def _reject(self, report: NewtonReport, friction: bool) -> None:
         """Return to the committed state after a failed attempt, and report the cut."""

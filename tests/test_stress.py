@@ -96,6 +96,7 @@ class ScriptedEquilibrium:
         self.failing, self.calls, self.slip_from = set(failing), 0, slip_from
         self.extrapolations = []  # ratios passed to extrapolate
         self.predictors = []  # the predictor flag of each sliding attempt
+        self.marks_path = []  # and its marks_path flag
         self.slopes, self.path_steps = 0, []  # path_slope calls, follow_path height changes
         self.flat_height = 0.0
         self.solid = types.SimpleNamespace(plastic_volume_fraction=lambda: 0.0)
@@ -107,12 +108,14 @@ class ScriptedEquilibrium:
             tangential_force=lambda contact: 0.5 * contact.fn if contact.slide else 0.0,
             count=lambda flags: int(np.count_nonzero(flags)))
 
-    def solve(self, normal_force, slide, friction, hold_height=False, predictor=True):
+    def solve(self, normal_force, slide, friction, hold_height=False, predictor=True,
+              marks_path=False):
         from roughfriction.solver.equilibrium import NewtonReport
 
         self.calls += 1
         if friction:
             self.predictors.append(predictor)
+            self.marks_path.append(marks_path)
         contact = types.SimpleNamespace(fn=normal_force, slide=slide,
                                         in_contact=np.ones(4, bool),
                                         slipping=np.full(4, slide > self.slip_from))
@@ -151,7 +154,7 @@ def test_load_path_records_the_cuts_before_each_step_also_across_a_branch():
     from roughfriction.solver.stepping import LoadPath
 
     case = FemCase(Surface(np.zeros((4, 4)), SPACING, "flat"), Loading(0.5))
-    equilibrium = ScriptedEquilibrium(failing={2, 3, 10, 13})
+    equilibrium = ScriptedEquilibrium(failing={2, 3, 10, 14})
     events = []
     path = LoadPath(equilibrium, case, 4 * SPACING, progress=events.append)
     target = case.normal_force
@@ -170,13 +173,13 @@ def test_load_path_records_the_cuts_before_each_step_also_across_a_branch():
     assert equilibrium.slopes == 5 and len(equilibrium.path_steps) == 7
     np.testing.assert_allclose(equilibrium.extrapolations, [(1 - 0.95) / (0.95 - 0.809375)])
     branch = path.branch_point()
-    assert path.slide().converged  # call 10 cut, 11 accepted at inception
+    assert path.slide().converged  # call 10 cut, 11 at inception, 12 solves it on, tight
     assert [r.cuts for r in path.records[7:]] == [1]
     summary = FemResult(list(path.records), True, "", False, {}, {}).summary()
     assert (summary["cut_steps"], summary["cut_iterations"]) == (3, 9)
-    assert summary["newton_iterations"] == 3 * path.attempts == 3 * equilibrium.calls
+    assert summary["newton_iterations"] == 3 * (path.attempts + 1) == 3 * equilibrium.calls
     path.return_to(branch)
-    assert path.preload(target).converged  # call 12 accepted, 13 cut, 14 accepted, ...
+    assert path.preload(target).converged  # call 13 accepted, 14 cut, 15 accepted, ...
     assert [r.cuts for r in path.records[:7]] == [0, 2, 0, 0, 0, 0, 0]
     assert [r.cuts for r in path.records[7:9]] == [0, 1]
     assert sum(r.cuts for r in path.records) == path.attempts - len(path.records) == 3
@@ -186,7 +189,9 @@ def test_load_path_records_the_cuts_before_each_step_also_across_a_branch():
 def test_sliding_steps_after_the_first_start_from_the_last_two_extrapolated():
     """The first sliding step starts from the preload's state with the tangential predictor;
     every later attempt, a retry after a cut too, starts from the last two sliding steps
-    extrapolated by its increment over the last accepted one, without the predictor."""
+    extrapolated by its increment over the last accepted one, without the predictor. Every
+    attempt only marks the path; the one that reaches inception is solved on, tight, from where
+    it ended."""
     from roughfriction.solver.stepping import LoadPath
 
     case = FemCase(Surface(np.zeros((4, 4)), SPACING, "flat"), Loading(0.5))
@@ -202,7 +207,8 @@ def test_sliding_steps_after_the_first_start_from_the_last_two_extrapolated():
     slides = [record.slide / first for record in path.records if record.phase == "tangential"]
     np.testing.assert_allclose(slides, [1.0, 1.75, 2.875, 4.5625])
     np.testing.assert_allclose(equilibrium.extrapolations, [1.5, 0.75, 1.5, 1.5])
-    assert equilibrium.predictors == [True, False, False, False, False]
+    assert equilibrium.predictors == [True, False, False, False, False, False]
+    assert equilibrium.marks_path == [True, True, True, True, True, False]
 
 
 # --- classification --------------------------------------------------------------------------
