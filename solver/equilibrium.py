@@ -341,8 +341,8 @@ class Equilibrium:
     # --- Newton -----------------------------------------------------------------------------
 
     def solve(self, normal_force: float, flat_slide: float, friction: bool,
-              hold_height: bool = False, predictor: bool = True, marks_path: bool = False
-              ) -> NewtonReport:
+              hold_height: bool = False, predictor: bool = True, marks_path: bool = False,
+              exact_tangent: bool = False) -> NewtonReport:
         """One load step: Newton solves with Uzawa updates of the contact multipliers until no
         contact node penetrates deeper than the tolerance.
 
@@ -365,6 +365,8 @@ class Equilibrium:
             The step only marks the loading path to the state that is reported (a held preload
             step, a sliding step before inception): it ends at the looser Newton tolerances of
             the solves between Uzawa updates.
+        exact_tangent : bool
+            Newton starts with the exact tangent instead of the symmetric one (:meth:`_newton`).
         """
         self._hold_height = hold_height
         options = self.options
@@ -378,7 +380,8 @@ class Equilibrium:
         while True:
             # the tangential predictor belongs to the first solve of a step only
             report = self._newton(normal_force, flat_slide, friction,
-                                  predictor and friction and solves == 0, *tolerances)
+                                  predictor and friction and solves == 0, *tolerances,
+                                  exact_tangent)
             solves += 1
             iterations += report.iterations
             krylov += report.krylov_iterations
@@ -403,8 +406,8 @@ class Equilibrium:
                             reason)
 
     def _newton(self, normal_force: float, flat_slide: float, friction: bool,
-                predictor: bool, residual_tolerance: float, increment_tolerance: float
-                ) -> NewtonReport:
+                predictor: bool, residual_tolerance: float, increment_tolerance: float,
+                exact_tangent: bool = False) -> NewtonReport:
         """Newton iterations from the current iterate with fixed multipliers (``predictor``:
         start with the tangential predictor of :meth:`RigidFlat.respond`) until ||R||, |r| <=
         ``residual_tolerance`` F_n and max |du| <= ``increment_tolerance`` h; other arguments as
@@ -413,7 +416,8 @@ class Equilibrium:
         The iterations start with the symmetric tangent (:attr:`RigidFlat.symmetric_tangent`:
         CG, and no stick/slip cycling driven by the cap's ramp) and go on with the exact one if
         they stagnate or reach the iteration limit while slipping points sit on the ramp (the
-        symmetric tangent then converges only linearly)."""
+        symmetric tangent then converges only linearly); with ``exact_tangent`` they start with
+        the exact one."""
         tolerance_force = residual_tolerance * normal_force
         tolerance_increment = increment_tolerance * self.spacing
         # the forcing term's safeguard for the iterative method only: CG on reused Cholesky
@@ -421,7 +425,7 @@ class Equilibrium:
         # of ranks to round-off (GAMG's aggregates depend on the partition anyway)
         safeguarded = residual_tolerance if self.linear_solver.method == "iterative" else 0.0
         self._active = None
-        self.flat.symmetric_tangent = True
+        self.flat.symmetric_tangent = not exact_tangent
         state = self._evaluate(normal_force, flat_slide, friction, predictor)
         increment, krylov = 0.0, 0
         history = []

@@ -252,8 +252,12 @@ class LoadPath:
                  ) -> NewtonReport:
         """Solve a sliding step that converged at the looser tolerances of a path step on, from
         where it ended, to the solver's tolerances; the report counts the iterations of both
-        (restores the committed state if it fails)."""
-        final = self.equilibrium.solve(normal_force, slide, True, predictor=False)
+        (restores the committed state if it fails). Newton starts with the exact tangent: every
+        contact node slips, and the slipping points below p_r at the patch edges couple their
+        traction to their pressure, which the symmetric tangent leaves out (it then converges
+        only linearly)."""
+        final = self.equilibrium.solve(normal_force, slide, True, predictor=False,
+                                       exact_tangent=True)
         final = dataclasses.replace(
             final, iterations=report.iterations + final.iterations,
             krylov_iterations=report.krylov_iterations + final.krylov_iterations)

@@ -27,9 +27,9 @@ def test_a_converged_step_is_one_newton_increment_from_the_solution(monkeypatch)
     moves, loose = [], []
 
     def checked(self, normal_force, flat_slide, friction, hold_height=False, predictor=True,
-                marks_path=False):
+                marks_path=False, exact_tangent=False):
         report = solve(self, normal_force, flat_slide, friction, hold_height, predictor,
-                       marks_path)
+                       marks_path, exact_tangent)
         if report.converged and report.iterations > 0:
             self.assemble(flat_slide, friction)
             self.assemble_tangent(report.contact)
@@ -117,9 +117,9 @@ def test_sliding_steps_before_inception_only_mark_the_path(monkeypatch):
     solve = Equilibrium.solve
 
     def tight(self, normal_force, flat_slide, friction, hold_height=False, predictor=True,
-              marks_path=False):
+              marks_path=False, exact_tangent=False):
         return solve(self, normal_force, flat_slide, friction, hold_height, predictor,
-                     marks_path and not friction)
+                     marks_path and not friction, exact_tangent)
 
     monkeypatch.setattr(Equilibrium, "solve", tight)
     reference = run(case, MPI.COMM_WORLD, progress=lambda record: None).result

@@ -97,6 +97,7 @@ class ScriptedEquilibrium:
         self.extrapolations = []  # ratios passed to extrapolate
         self.predictors = []  # the predictor flag of each sliding attempt
         self.marks_path = []  # and its marks_path flag
+        self.exact_tangent = []  # and its exact_tangent flag
         self.slopes, self.path_steps = 0, []  # path_slope calls, follow_path height changes
         self.flat_height = 0.0
         self.solid = types.SimpleNamespace(plastic_volume_fraction=lambda: 0.0)
@@ -109,13 +110,14 @@ class ScriptedEquilibrium:
             count=lambda flags: int(np.count_nonzero(flags)))
 
     def solve(self, normal_force, slide, friction, hold_height=False, predictor=True,
-              marks_path=False):
+              marks_path=False, exact_tangent=False):
         from roughfriction.solver.equilibrium import NewtonReport
 
         self.calls += 1
         if friction:
             self.predictors.append(predictor)
             self.marks_path.append(marks_path)
+            self.exact_tangent.append(exact_tangent)
         contact = types.SimpleNamespace(fn=normal_force, slide=slide,
                                         in_contact=np.ones(4, bool),
                                         slipping=np.full(4, slide > self.slip_from))
@@ -191,7 +193,7 @@ def test_sliding_steps_after_the_first_start_from_the_last_two_extrapolated():
     every later attempt, a retry after a cut too, starts from the last two sliding steps
     extrapolated by its increment over the last accepted one, without the predictor. Every
     attempt only marks the path; the one that reaches inception is solved on, tight, from where
-    it ended."""
+    it ended, with the exact tangent from the start."""
     from roughfriction.solver.stepping import LoadPath
 
     case = FemCase(Surface(np.zeros((4, 4)), SPACING, "flat"), Loading(0.5))
@@ -209,6 +211,7 @@ def test_sliding_steps_after_the_first_start_from_the_last_two_extrapolated():
     np.testing.assert_allclose(equilibrium.extrapolations, [1.5, 0.75, 1.5, 1.5])
     assert equilibrium.predictors == [True, False, False, False, False, False]
     assert equilibrium.marks_path == [True, True, True, True, True, False]
+    assert equilibrium.exact_tangent == [False, False, False, False, False, True]
 
 
 # --- classification --------------------------------------------------------------------------
