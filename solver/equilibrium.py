@@ -407,7 +407,7 @@ class Equilibrium:
 
     def _newton(self, normal_force: float, flat_slide: float, friction: bool,
                 predictor: bool, residual_tolerance: float, increment_tolerance: float,
-                exact_tangent: bool = False) -> NewtonReport:
+                exact_tangent: bool) -> NewtonReport:
         """Newton iterations from the current iterate with fixed multipliers (``predictor``:
         start with the tangential predictor of :meth:`RigidFlat.respond`) until ||R||, |r| <=
         ``residual_tolerance`` F_n and max |du| <= ``increment_tolerance`` h; other arguments as

@@ -35,6 +35,11 @@ FORCE_CONTROLLED = 0.1
 MAX_SLIDE_INCREMENT = 0.25
 
 
+def at_inception(slipping_nodes: int, contact_nodes: int) -> bool:
+    """Sliding inception: every contact node slips (and some node touches) [-]."""
+    return 0 < slipping_nodes == contact_nodes
+
+
 @dataclass(frozen=True)
 class Outcome:
     """How a loading phase ended.
@@ -220,13 +225,13 @@ class LoadPath:
                                           f" m ({report.reason})")
                 continue
             last, slide = trial - slide, trial
-            self._accept("tangential", report, slide)
-            if self._slips(report.contact):
+            record = self._accept("tangential", report, slide)
+            if at_inception(record.slipping_nodes, record.contact_nodes):
                 return Outcome(True)
             if slide > self.case.solver.max_slide * scale:
                 return Outcome(False, f"no sliding inception up to u_x = {slide:.4g} m "
-                                      f"({self.records[-1].slipping_nodes} of "
-                                      f"{self.records[-1].contact_nodes} contact nodes slip)")
+                                      f"({record.slipping_nodes} of {record.contact_nodes} "
+                                      "contact nodes slip)")
             size.after(report)
 
     def _attempt(self, normal_force: float, slide: float, friction: bool,
@@ -244,9 +249,9 @@ class LoadPath:
         return report
 
     def _slips(self, contact: ContactResponse) -> bool:
-        """Sliding inception: every contact node slips (and some node touches)."""
+        """Sliding inception (:func:`at_inception`) in the contact state ``contact``."""
         maps = self.equilibrium.flat.node_maps(contact)
-        return 0 < np.count_nonzero(maps["slip"]) == np.count_nonzero(maps["contact"])
+        return at_inception(np.count_nonzero(maps["slip"]), np.count_nonzero(maps["contact"]))
 
     def _tighten(self, report: NewtonReport, normal_force: float, slide: float
                  ) -> NewtonReport:
