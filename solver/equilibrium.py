@@ -40,7 +40,11 @@ STAGNATION_WINDOW = 4
 #: A Newton solve that stagnates with ||R||, |r| and max |du| within this factor of their
 #: tolerances, under the contact law itself, has reached the floor set by the inexact Krylov
 #: solves and the kinks of the contact law: it is accepted, not cut (Newton tolerances 1e-4
-#: and 1e-8 F_n give the same mu_s to 0.06 %) [-].
+#: and 1e-8 F_n give the same mu_s to 0.06 %). A solve to tolerances tighter than the path's
+#: (``UZAWA_RESIDUAL_TOLERANCE``) is accepted there as soon as its line search has cut a step:
+#: a kink lies between the iterate and the solution (a node at the edge of contact, whose shear
+#: cap follows its pressure; points at the yield surface), and Newton only halves the residual
+#: per iteration from there [-].
 RESIDUAL_FLOOR = 10.0
 #: Newton iterations with the contact law free; then the contact set is frozen until the
 #: iterate converges: its nodes stay in contact, and nodes that penetrate join it (the set
@@ -428,6 +432,8 @@ class Equilibrium:
         self.flat.symmetric_tangent = not exact_tangent
         state = self._evaluate(normal_force, flat_slide, friction, predictor)
         increment, krylov = 0.0, 0
+        cut = False  # the last line search cut the Newton step
+        settles_on_kink = residual_tolerance < UZAWA_RESIDUAL_TOLERANCE  # (RESIDUAL_FLOOR)
         history = []
         rounds, changes, limit = 0, np.inf, self.options.max_iterations
         reason = ""
@@ -469,13 +475,17 @@ class Equilibrium:
             if not np.isfinite(state.merit):
                 reason = "residual not finite"
                 break
-            if stagnating:
-                if self._active is not None:  # judge the floor under the contact law itself
+            if stagnating or (cut and settles_on_kink and converged(state, RESIDUAL_FLOOR)):
+                frozen = self._active
+                if frozen is not None:  # judge the floor under the contact law itself
                     self._active = None
                     state = self._evaluate(normal_force, flat_slide, friction, predictor=False)
                 if converged(state, RESIDUAL_FLOOR):
                     return NewtonReport(True, iteration, krylov, state.residual / normal_force,
                                         state.contact)
+                if not stagnating:  # above the floor under the law: the frozen round goes on
+                    self._active = frozen
+                    state = self._evaluate(normal_force, flat_slide, friction, predictor=False)
             if (stagnating or iteration == limit) and self.flat.symmetric_tangent and self._coupled:
                 # slipping points on the cap's ramp: go on with the exact tangent
                 self.flat.symmetric_tangent = False
@@ -510,6 +520,7 @@ class Equilibrium:
             step, state = self._line_search(height_increment, state, normal_force,
                                             flat_slide, friction, full_step=predictor)
             increment = step * self._x1.norm(PETSc.NormType.NORM_INFINITY)
+            cut = step < 1.0
             predictor = False
             if self._active is not None:  # nodes that entered contact stay in this round
                 self._active = state.contact.node_active

@@ -1,5 +1,7 @@
 """Newton loop of solver.equilibrium: convergence of its steps."""
 
+from types import SimpleNamespace
+
 import dolfinx  # noqa: E402, F401  (an install without the FEM fails here)
 import numpy as np
 import pytest
@@ -245,3 +247,63 @@ def test_the_tangent_is_the_reduced_solid_tangent_plus_the_contact_blocks(monkey
     assert result.converged, result.message
     assert plastic_iterations[0] > 10 and len(differences) > 20
     assert max(differences) < 1e-13, f"the tangent differs by {max(differences):.2e} (Frobenius)"
+
+
+class ScriptedNewton(Equilibrium):
+    """The Newton loop of :class:`Equilibrium` over scripted iterates: each line search returns
+    the next (step length, ||R|| / F_n) of ``script``; F_n = 1, h = 1, the contact set fixed."""
+
+    def __init__(self, start: float, script: list):
+        self.options, self.spacing = SolverOptions(), 1.0
+        self.linear_solver = SimpleNamespace(method="iterative")
+        self.flat = SimpleNamespace(symmetric_tangent=True, count=np.count_nonzero)
+        self._active, self._hold_height, self._coupled = None, True, False
+        self._x1 = SimpleNamespace(norm=lambda kind: 5e-5)  # max |du| of a full step [h]
+        self._state = self._iterate(start)
+        self._script = list(script)
+
+    @staticmethod
+    def _iterate(residual: float):
+        contact = SimpleNamespace(node_active=np.ones(4, dtype=bool))
+        return equilibrium_module._Iterate(contact, residual, 0.0)
+
+    def _evaluate(self, normal_force, flat_slide, friction, predictor):
+        return self._state
+
+    def assemble_tangent(self, contact):
+        pass
+
+    def _bordered_solve(self, force_error, tolerance):
+        return 0.0, 1
+
+    def _line_search(self, height_increment, current, normal_force, flat_slide, friction,
+                     full_step):
+        step, residual = self._script.pop(0)
+        self._state = self._iterate(residual)
+        return step, self._state
+
+
+HALVING = [(0.5, 1.2e-5), (0.5, 6e-6), (0.5, 3e-6), (0.5, 1.5e-6), (1.0, 8e-7)]
+
+
+@pytest.mark.parametrize("start, script, tolerance, iterations, residual", [
+    # tight: accepted at the first iterate within RESIDUAL_FLOOR after a cut step
+    (2.5e-5, HALVING, 1e-6, 2, 6e-6),
+    # ... also in the frozen round (from the 4th iteration), judged under the law
+    (1e-4, [(0.5, 5e-5), (0.5, 3e-5), (0.5, 2e-5)] + HALVING, 1e-6, 5, 6e-6),
+    # a full step into the floor is Newton's quadratic regime: no early stop
+    (2.5e-5, [(1.0, 6e-6), (1.0, 8e-7)], 1e-6, 2, 8e-7),
+    # the path's loose solves (1e-4 F_n) go on to their tolerance: their floor would move
+    # the path
+    (2.5e-3, [(step, 100 * residual) for step, residual in HALVING], 1e-4, 5, 8e-5),
+])
+def test_a_tight_newton_solve_settles_at_the_floor_once_a_step_is_cut(
+        start, script, tolerance, iterations, residual):
+    """Equilibrium._newton accepts an iterate within RESIDUAL_FLOOR times its tolerances as soon
+    as the line search has cut a step, in a solve tighter than the path's; otherwise it goes on
+    to its tolerances."""
+    newton = ScriptedNewton(start, script)
+    report = newton._newton(1.0, 0.0, True, False, tolerance, 1e-4, False)
+    assert report.converged
+    assert report.iterations == iterations
+    assert report.residual == pytest.approx(residual)
