@@ -251,9 +251,11 @@ def test_the_tangent_is_the_reduced_solid_tangent_plus_the_contact_blocks(monkey
 
 class ScriptedNewton(Equilibrium):
     """The Newton loop of :class:`Equilibrium` over scripted iterates: each line search returns
-    the next (step length, ||R|| / F_n) of ``script``; F_n = 1, h = 1, the contact set fixed."""
+    the next (step length, ||R|| / F_n) of ``script``; F_n = 1, h = 1, the contact set fixed.
+    ``law`` maps a number of line searches done to ||R|| / F_n under the free contact law there
+    (else the same as under the frozen set)."""
 
-    def __init__(self, start: float, script: list):
+    def __init__(self, start: float, script: list, law: dict | None = None):
         self.options, self.spacing = SolverOptions(), 1.0
         self.linear_solver = SimpleNamespace(method="iterative")
         self.flat = SimpleNamespace(symmetric_tangent=True, count=np.count_nonzero)
@@ -261,6 +263,7 @@ class ScriptedNewton(Equilibrium):
         self._x1 = SimpleNamespace(norm=lambda kind: 5e-5)  # max |du| of a full step [h]
         self._state = self._iterate(start)
         self._script = list(script)
+        self._law, self._done = law or {}, 0
 
     @staticmethod
     def _iterate(residual: float):
@@ -268,6 +271,8 @@ class ScriptedNewton(Equilibrium):
         return equilibrium_module._Iterate(contact, residual, 0.0)
 
     def _evaluate(self, normal_force, flat_slide, friction, predictor):
+        if self._active is None and self._done in self._law:
+            return self._iterate(self._law[self._done])
         return self._state
 
     def assemble_tangent(self, contact):
@@ -280,29 +285,35 @@ class ScriptedNewton(Equilibrium):
                      full_step):
         step, residual = self._script.pop(0)
         self._state = self._iterate(residual)
+        self._done += 1
         return step, self._state
 
 
 HALVING = [(0.5, 1.2e-5), (0.5, 6e-6), (0.5, 3e-6), (0.5, 1.5e-6), (1.0, 8e-7)]
 
 
-@pytest.mark.parametrize("start, script, tolerance, iterations, residual", [
+FROZEN = [(0.5, 5e-5), (0.5, 3e-5), (0.5, 2e-5)] + HALVING
+
+
+@pytest.mark.parametrize("start, script, law, tolerance, iterations, residual", [
     # tight: accepted at the first iterate within RESIDUAL_FLOOR after a cut step
-    (2.5e-5, HALVING, 1e-6, 2, 6e-6),
+    (2.5e-5, HALVING, None, 1e-6, 2, 6e-6),
     # ... also in the frozen round (from the 4th iteration), judged under the law
-    (1e-4, [(0.5, 5e-5), (0.5, 3e-5), (0.5, 2e-5)] + HALVING, 1e-6, 5, 6e-6),
+    (1e-4, FROZEN, None, 1e-6, 5, 6e-6),
+    # ... where the law's residual is above the floor, the frozen round goes on
+    (1e-4, FROZEN, {5: 5e-5}, 1e-6, 6, 3e-6),
     # a full step into the floor is Newton's quadratic regime: no early stop
-    (2.5e-5, [(1.0, 6e-6), (1.0, 8e-7)], 1e-6, 2, 8e-7),
+    (2.5e-5, [(1.0, 6e-6), (1.0, 8e-7)], None, 1e-6, 2, 8e-7),
     # the path's loose solves (1e-4 F_n) go on to their tolerance: their floor would move
     # the path
-    (2.5e-3, [(step, 100 * residual) for step, residual in HALVING], 1e-4, 5, 8e-5),
+    (2.5e-3, [(step, 100 * residual) for step, residual in HALVING], None, 1e-4, 5, 8e-5),
 ])
 def test_a_tight_newton_solve_settles_at_the_floor_once_a_step_is_cut(
-        start, script, tolerance, iterations, residual):
+        start, script, law, tolerance, iterations, residual):
     """Equilibrium._newton accepts an iterate within RESIDUAL_FLOOR times its tolerances as soon
-    as the line search has cut a step, in a solve tighter than the path's; otherwise it goes on
-    to its tolerances."""
-    newton = ScriptedNewton(start, script)
+    as the line search has cut a step, in a solve tighter than the path's, judged under the
+    contact law itself; otherwise it goes on to its tolerances."""
+    newton = ScriptedNewton(start, script, law)
     report = newton._newton(1.0, 0.0, True, False, tolerance, 1e-4, False)
     assert report.converged
     assert report.iterations == iterations
