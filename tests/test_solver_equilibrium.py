@@ -290,8 +290,6 @@ class ScriptedNewton(Equilibrium):
 
 
 HALVING = [(0.5, 1.2e-5), (0.5, 6e-6), (0.5, 3e-6), (0.5, 1.5e-6), (1.0, 8e-7)]
-
-
 FROZEN = [(0.5, 5e-5), (0.5, 3e-5), (0.5, 2e-5)] + HALVING
 
 
