@@ -11,8 +11,9 @@ with one operator: K x1 = -R, K x2 = -b, dh = -(r + c.x1) / (c.x2 + d), du = x1 
 (c = -b on the z rows; b also has x-y entries where a slipping point's shear cap follows its
 pressure, see :mod:`solver.contact`).
 A Newton solve is converged when ||R|| <= tol_R F_n, |r| <= tol_R F_n and the last
-max |du| <= tol_u h; a backtracking line search on ||R||^2 + r^2 damps contact overshoot, and a
-solve whose residual stops halving is abandoned (the step is then cut). A load step is converged
+max |du| <= tol_u h. A line search along each Newton step (du, dh) seeks the root of the slope
+s = du.R - dh r of the step's energy, which damps contact and yield overshoot; a solve whose
+residual stops halving is abandoned (the step is then cut). A load step is converged
 when, after Uzawa updates of the contact multipliers (Newton stops at looser tolerances between
 updates), no contact point penetrates deeper than tol_g h.
 """
@@ -20,6 +21,7 @@ updates), no contact point penetrates deeper than tol_g h.
 from __future__ import annotations
 
 import itertools
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -32,8 +34,11 @@ from roughfriction.solver.linear import LinearSolveError, LinearSolver
 from roughfriction.solver.periodic import PeriodicReduction
 from roughfriction.solver.solid import Solid
 
-#: Halvings of a Newton step before it is taken anyway [-].
-LINE_SEARCH_HALVINGS = 5
+#: Trial steps of a line search after the full Newton step, before the last is taken anyway [-].
+LINE_SEARCH_TRIALS = 5
+#: A line search accepts a step length a where the slope of the energy along the Newton step,
+#: s(a) = du.R(a) - dh r(a), has |s(a)| <= this times |s(0)| (s(1) <= it for the full step) [-].
+LINE_SEARCH_SLACK = 0.25
 #: Give a step up when ||R|| + |r| has not halved over this many iterations (stick/slip or
 #: open/closed cycling; the step is then cut) [-].
 STAGNATION_WINDOW = 4
@@ -123,6 +128,40 @@ class _Iterate:
     def merit(self) -> float:
         """||R||^2 + r^2 [N^2]."""
         return self.residual**2 + self.force_error**2
+
+
+def line_search_step(slope: Callable[[float], float], initial_slope: float) -> float:
+    """Step length a in (0, 1] along a Newton step: the full step if the energy's slope there,
+    s(1), is <= ``LINE_SEARCH_SLACK`` |s(0)|, else a root of s bracketed in [0, 1], by the
+    secant through the last two trials (exact once both lie past a kink of s, e.g. a node that
+    touches the flat) or bisection where that leaves the inner 80 % of the bracket, until
+    |s(a)| <= ``LINE_SEARCH_SLACK`` |s(0)| or ``LINE_SEARCH_TRIALS`` trials (the last is taken).
+
+    ``slope(a)`` moves the iterate to a and returns s(a) [J] (inf if the residual there is not
+    finite); ``initial_slope`` is s(0) < 0 [J]. Returns the a of the last call of ``slope``.
+    """
+    threshold = LINE_SEARCH_SLACK * abs(initial_slope)
+    low, high = 0.0, 1.0
+    trials = [(0.0, initial_slope), (1.0, slope(1.0))]
+    if trials[-1][1] <= threshold:
+        return 1.0
+    for _ in range(LINE_SEARCH_TRIALS):
+        (older, older_slope), (last, last_slope) = trials[-2:]
+        step = np.nan
+        if np.isfinite(older_slope) and np.isfinite(last_slope) and last_slope != older_slope:
+            step = last - last_slope * (last - older) / (last_slope - older_slope)
+        width = high - low
+        if not low + 0.1 * width <= step <= high - 0.1 * width:
+            step = low + 0.5 * width
+        current = slope(step)
+        trials.append((step, current))
+        if abs(current) <= threshold:
+            break
+        if current > 0.0:
+            high = step
+        else:
+            low = step
+    return step
 
 
 def forcing_term(state: _Iterate, normal_force: float, residual_tolerance: float) -> float:
@@ -546,6 +585,7 @@ class Equilibrium:
         self.linear_solver.set_operator(self.tangent, self._symmetric)
         self.residual.scale(-1.0)
         krylov = self.linear_solver.solve(self.residual, self._x1, relative_tolerance=tolerance)
+        self.residual.scale(-1.0)  # R again, for the line search
         if self._hold_height:
             return 0.0, krylov
         allowed = (tolerance * (self.residual.norm() + abs(force_error))
@@ -563,24 +603,44 @@ class Equilibrium:
 
     def _line_search(self, height_increment: float, current: _Iterate, normal_force: float,
                      flat_slide: float, friction: bool, full_step: bool) -> tuple[float, _Iterate]:
-        """Apply the Newton step (du in x1, dh), halving it while ||R||^2 + r^2 grows.
+        """Apply the Newton step (du in x1, dh) with the step length of :func:`line_search_step`.
 
-        Contact makes the residual only piecewise smooth: with few nodes in contact a full
-        force-controlled step can push open nodes deep into the flat (the penalty is ~10x
-        stiffer than the solid) and oscillate. The tangential predictor's step is always taken
-        (its residual is not comparable). Returns the accepted step length and the iterate there.
+        Frictionless, the step problem minimises a convex energy of (u, h): the solid's
+        incremental J2 potential, the penalty's and F_n h. R and -r are its gradient, and
+        s(a) = du.R(a) - dh r(a) its slope along the step, which grows with a. Contact and yield
+        make it only piecewise smooth: a full step that pushes open nodes into the flat or
+        unloads yielding points overshoots, and the root of s is where the energy is least.
+        With friction s is the same projection of the residual (a heuristic: slip dissipates).
+        Where the energy does not descend along the step (s(0) >= 0: an inexact or
+        non-symmetric solve), the step is halved while ||R||^2 + r^2 grows. The tangential
+        predictor's step is always taken (its residual is not comparable). Returns the accepted
+        step length and the iterate there.
         """
+        initial_slope = self._x1.dot(self.residual) - height_increment * current.force_error
+        position, state = 0.0, current
+
+        def slope(step: float) -> float:
+            nonlocal position, state
+            self.displacement.axpy(step - position, self._x1)
+            self.flat_height += (step - position) * height_increment
+            position = step
+            state = self._evaluate(normal_force, flat_slide, friction, predictor=False)
+            if not np.isfinite(state.merit):
+                return np.inf
+            return self._x1.dot(self.residual) - height_increment * state.force_error
+
+        if full_step:
+            slope(1.0)
+            return 1.0, state
+        if initial_slope < 0.0:
+            return line_search_step(slope, initial_slope), state
         step = 1.0
-        self.displacement.axpy(step, self._x1)
-        self.flat_height += step * height_increment
-        state = self._evaluate(normal_force, flat_slide, friction, predictor=False)
-        for _ in range(LINE_SEARCH_HALVINGS):
-            if full_step or state.merit < current.merit:
+        slope(step)
+        for _ in range(LINE_SEARCH_TRIALS):
+            if state.merit < current.merit:
                 break
             step *= 0.5
-            self.displacement.axpy(-step, self._x1)
-            self.flat_height -= step * height_increment
-            state = self._evaluate(normal_force, flat_slide, friction, predictor=False)
+            slope(step)
         return step, state
 
     def path_slope(self) -> float:

@@ -316,3 +316,69 @@ def test_a_tight_newton_solve_settles_at_the_floor_once_a_step_is_cut(
     assert report.converged
     assert report.iterations == iterations
     assert report.residual == pytest.approx(residual)
+
+
+def kinked_slope(kink: float, soft: float, stiff: float, calls: list):
+    """s(a) of a Newton step whose energy is quadratic with slope ``soft`` [J per unit step]
+    up to a node touching the flat at a = ``kink``, ``stiff`` beyond; s(0) = -1 J. Records the
+    step lengths it is called at."""
+    def slope(step):
+        calls.append(step)
+        return -1.0 + soft * step + stiff * max(step - kink, 0.0)
+    return slope
+
+
+def test_a_line_search_takes_the_full_step_where_the_energy_is_quadratic():
+    """An exact Newton step on a quadratic energy lands on its minimum: s(1) = 0."""
+    calls = []
+    step = equilibrium_module.line_search_step(kinked_slope(2.0, 1.0, 0.0, calls), -1.0)
+    assert step == 1.0 and calls == [1.0]
+
+
+@pytest.mark.parametrize("kink, stiff", [(0.3, 1e3), (0.05, 1e5), (0.9, 50.0)])
+def test_a_line_search_stops_near_the_least_energy_past_a_contact_kink(kink, stiff):
+    """A node that touches the flat part-way along the step (the penalty ~1e3 times stiffer
+    than the solid): the step ends where |s| <= LINE_SEARCH_SLACK |s(0)|, just past the kink,
+    within the trial budget, and the iterate is left there (the last call)."""
+    calls = []
+    slope = kinked_slope(kink, 0.5, stiff, calls)
+    step = equilibrium_module.line_search_step(slope, -1.0)
+    assert abs(slope(step)) <= equilibrium_module.LINE_SEARCH_SLACK
+    assert calls[-2] == step and len(calls) - 1 <= 1 + equilibrium_module.LINE_SEARCH_TRIALS
+    halved = 1.0  # what halving while the merit s^2 grows would have taken
+    while kinked_slope(kink, 0.5, stiff, [])(halved) ** 2 >= 1.0 and halved > 1 / 32:
+        halved /= 2
+    assert abs(kinked_slope(kink, 0.5, stiff, [])(halved)) > abs(slope(step))
+
+
+def test_a_line_search_bisects_where_the_residual_is_not_finite():
+    """Past a = 0.6 the residual is not finite (inf); the root of s at a = 0.5 is found."""
+    def slope(step):
+        return np.inf if step > 0.6 else -1.0 + 2.0 * step
+    step = equilibrium_module.line_search_step(slope, -1.0)
+    assert abs(slope(step)) <= equilibrium_module.LINE_SEARCH_SLACK
+
+
+def test_the_frictionless_newton_steps_descend_the_energy(monkeypatch):
+    """Without friction the step problem minimises a convex energy whose gradient is (R, -r):
+    every Newton step of a preload, held or force-controlled, is a descent direction,
+    s(0) = du.R - dh r < 0, so its line search is the energy's (no fallback to halving)."""
+    slopes = {True: [], False: []}
+    original = Equilibrium._line_search
+
+    def recorded(self, height_increment, current, normal_force, flat_slide, friction,
+                 full_step):
+        if not friction:
+            slopes[self._hold_height].append(
+                self._x1.dot(self.residual) - height_increment * current.force_error)
+        return original(self, height_increment, current, normal_force, flat_slide, friction,
+                        full_step)
+
+    monkeypatch.setattr(Equilibrium, "_line_search", recorded)
+    heights = np.random.default_rng(7).normal(0.0, 1e-7, (16, 16))
+    for load in (0.05, 0.5):  # at 0.05 a step has du.R > 0 > du.R - dh r
+        case = FemCase(Surface(heights, 1e-6, "test"), Loading(load, normal_only=True))
+        result = run(case, MPI.COMM_WORLD, progress=lambda record: None).result
+        assert result.converged, result.message
+    assert len(slopes[True]) > 3 and len(slopes[False]) > 3
+    assert max(slopes[True] + slopes[False]) < 0.0
