@@ -610,9 +610,10 @@ class Equilibrium:
         s(a) = du.R(a) - dh r(a) its slope along the step, which grows with a. Contact and yield
         make it only piecewise smooth: a full step that pushes open nodes into the flat or
         unloads yielding points overshoots, and the root of s is where the energy is least.
-        With friction s is the same projection of the residual (a heuristic: slip dissipates).
-        Where the energy does not descend along the step (s(0) >= 0: an inexact or
-        non-symmetric solve), the step is halved while ||R||^2 + r^2 grows. The tangential
+        With friction s is the same projection of the residual (a heuristic: slip dissipates),
+        used while the tangent is the symmetric one. With the exact tangent (slipping points
+        whose cap follows their pressure), or where the energy does not descend along the step
+        (s(0) >= 0), the step is halved while ||R||^2 + r^2 grows. The tangential
         predictor's step is always taken (its residual is not comparable). Returns the accepted
         step length and the iterate there.
         """
@@ -632,7 +633,7 @@ class Equilibrium:
         if full_step:
             slope(1.0)
             return 1.0, state
-        if initial_slope < 0.0:
+        if initial_slope < 0.0 and (not friction or self.flat.symmetric_tangent):
             return line_search_step(slope, initial_slope), state
         step = 1.0
         slope(step)

@@ -189,7 +189,7 @@ def test_the_bordered_newton_direction_meets_its_krylov_tolerance(monkeypatch):
             linear = self._x1.duplicate()
             self.tangent.mult(self._x1, linear)  # K du
             linear.axpy(height_increment, self._height_column)  # + b dh
-            linear.axpy(-1.0, self.residual)  # + R (the residual holds -R here)
+            linear.axpy(1.0, self.residual)  # + R
             ratios.append(linear.norm() / (tolerance * residual_norm))
             linear.destroy()
         return height_increment, krylov
