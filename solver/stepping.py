@@ -110,6 +110,7 @@ class LoadPath:
         self.contact: ContactResponse | None = None  # at the last converged step
         self.normal_force = 0.0  # preload reached [N]
         self._path_slope = None  # dF_n/dh at the last converged step, once computed [N/m]
+        self._overshoot = None  # (h [m], F_n [N]) of a held attempt over the increment cap
         self._started = time.perf_counter()
 
     def branch_point(self) -> tuple:
@@ -122,7 +123,7 @@ class LoadPath:
         """Undo everything after :meth:`branch_point`: state, records and step count; the
         branch's wall time is not counted in later records."""
         state, num_records, self.contact, self.normal_force, self.attempts, taken = point
-        self.failed_iterations, self._path_slope = 0, None
+        self.failed_iterations, self._path_slope, self._overshoot = 0, None, None
         self.equilibrium.resume(state)
         del self.records[num_records:]
         self._started += time.perf_counter() - taken
@@ -142,8 +143,10 @@ class LoadPath:
         the flat, force control has a limit point where Newton stalls): the first from the
         spring estimate of :meth:`Equilibrium.place_flat`, the next ones along the path tangent
         (:meth:`_aim_height`, which falls short of its aim). A held step that carries more than
-        ``target`` is cut. Held steps end at the looser tolerances of a step that marks the
-        path (:meth:`Equilibrium.solve`). The last step, to ``target``, is force-controlled.
+        ``target``, or adds more than the increment cap (at first contact the path slope is
+        far too soft), is cut and re-aimed from it. Held steps end at the looser tolerances of
+        a step that marks the path (:meth:`Equilibrium.solve`). The last step, to ``target``,
+        is force-controlled.
         """
         options = self.case.solver
         largest = 1.0 if options.elastic else MAX_PRELOAD_INCREMENT  # elastic: path-free
@@ -168,7 +171,11 @@ class LoadPath:
                 return Outcome(False, f"step limit reached during preload at F_n = {start:.4g}"
                                       " x target")
             force = equilibrium.flat.normal_force(report.contact) if hold else aim
-            if report.converged and not 0.0 < force <= target:  # held too low: aim lower
+            overshoot = (hold and report.converged and self.normal_force > 0.0
+                         and force - self.normal_force > largest * target)
+            if report.converged and (overshoot or not 0.0 < force <= target):  # aim lower
+                if overshoot or force > target:
+                    self._overshoot = (equilibrium.flat_height, force)
                 report = NewtonReport(False, report.iterations, report.krylov_iterations,
                                       report.residual, report.contact,
                                       f"the held flat carries {force / target:.3g} x F_n")
@@ -180,7 +187,7 @@ class LoadPath:
                 continue
             # (not from the unloaded state: there the flat's height is not on the load path)
             last = force - self.normal_force if self.normal_force else None
-            self.normal_force, self._path_slope = force, None
+            self.normal_force, self._path_slope, self._overshoot = force, None, None
             self._accept("normal", report, 0.0)
             size.after(report)
         return Outcome(True)
@@ -189,10 +196,17 @@ class LoadPath:
         """First iterate of a held preload step aimed at the load ``aim`` [N] from the
         committed step: the flat lowered by dh = ln(aim / F_n) / (d ln F_n / dh), the slope
         of the equilibrium path there (exact for an exponential load-approach curve, short of
-        the aim for a power law F_n ~ d^a), and u along the path tangent."""
+        the aim for a power law F_n ~ d^a), and u along the path tangent. After an attempt
+        that overshot the increment cap, dh is interpolated between the committed step and
+        that attempt (F_n(h) stiffens as contact grows, so this too falls short)."""
         equilibrium = self.equilibrium
         if self._path_slope is None:
             self._path_slope = equilibrium.path_slope()
+        if self._overshoot is not None:
+            height, force = self._overshoot
+            equilibrium.follow_path((aim - self.normal_force) / (force - self.normal_force)
+                                    * (height - equilibrium.flat_height))
+            return
         equilibrium.follow_path(np.log(aim / self.normal_force) * self.normal_force
                                 / self._path_slope)
 
