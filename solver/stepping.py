@@ -110,7 +110,7 @@ class LoadPath:
         self.contact: ContactResponse | None = None  # at the last converged step
         self.normal_force = 0.0  # preload reached [N]
         self._path_slope = None  # dF_n/dh at the last converged step, once computed [N/m]
-        self._overshoot = None  # (h [m], F_n [N]) of a held attempt over the increment cap
+        self._overshoot = None  # (h [m], F_n [N]) of the last held attempt that carried too much
         self._started = time.perf_counter()
 
     def branch_point(self) -> tuple:
@@ -174,7 +174,7 @@ class LoadPath:
             overshoot = (hold and report.converged and self.normal_force > 0.0
                          and force - self.normal_force > largest * target)
             if report.converged and (overshoot or not 0.0 < force <= target):  # aim lower
-                if overshoot or force > target:
+                if overshoot or force > target:  # re-aim from this attempt (_aim_height)
                     self._overshoot = (equilibrium.flat_height, force)
                 report = NewtonReport(False, report.iterations, report.krylov_iterations,
                                       report.residual, report.contact,
@@ -198,7 +198,8 @@ class LoadPath:
         of the equilibrium path there (exact for an exponential load-approach curve, short of
         the aim for a power law F_n ~ d^a), and u along the path tangent. After an attempt
         that overshot the increment cap, dh is interpolated between the committed step and
-        that attempt (F_n(h) stiffens as contact grows, so this too falls short)."""
+        that attempt (where yielding peaks soften F_n(h) this may overshoot again; the cut then
+        repeats from the newer attempt)."""
         equilibrium = self.equilibrium
         if self._path_slope is None:
             self._path_slope = equilibrium.path_slope()
