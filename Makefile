@@ -17,7 +17,7 @@ MPIRUN := mpirun -n $(NP) --oversubscribe
 DEBIAN_PACKAGES := python3-dolfinx-real python3-petsc4py-real python3-mpi4py python3-gmsh \
 	python3-h5py python3-scipy python3-matplotlib python3-venv libopenblas0-serial
 
-.PHONY: setup test lint figures gallery bench bench-multiscale bench-fem bench-error \
+.PHONY: setup test lint figures gallery bench bench-multiscale bench-fem bench-path bench-error \
 	bench-error-quick bench-profile stress clean
 
 # --- set-up -----------------------------------------------------------------------------
@@ -106,6 +106,13 @@ bench-fem: setup
 	@$(VENV)/bin/roughfriction bench fem --n $(BENCH_N) --ranks $(NP) --case $(BENCH_CASES)
 	@mkdir -p docs/bench && cp results/bench/fem.csv docs/bench/
 
+# The load path's error (scripts/bench_fem.py): the headline cases on the default path and on a
+# 4x finer one (largest preload and sliding increments / 4), at N = 64 (`PATH_N=32` is quicker).
+PATH_N ?= 64
+bench-path: setup
+	@$(VENV)/bin/roughfriction bench path --n $(PATH_N) --ranks $(NP) --case $(BENCH_CASES)
+	@mkdir -p docs/bench && cp results/bench/path.csv docs/bench/
+
 # Run time against error (studies/convergence.py): G5 at F* = 0.155 and 0.93, 2L at 0.5 and the
 # elastic sinusoid, at N = 16, 32, 64, 128, each surface but the finest on a 2x finer mesh and
 # each knob alone at N = $(N), through the run cache on $(NP) ranks ->
@@ -128,7 +135,7 @@ bench-profile: setup
 	@$(MPIRUN) $(VENV)/bin/roughfriction bench profile $(firstword $(subst :, ,$(PROFILE_CASE))) \
 	  --load $(lastword $(subst :, ,$(PROFILE_CASE))) --n $(N)
 
-bench: bench-multiscale bench-fem bench-error
+bench: bench-multiscale bench-fem bench-path bench-error
 
 # Stress matrix (studies/stress.py): G1-G9 x F* 0.01-1.86, ST400 test3, penalty and step size
 # on G5, N = $(N), $(NP) ranks -> results/bench/stress.{csv,md}, copied to docs/bench/ unless a

@@ -127,9 +127,16 @@ class SolverOptions:
         ``solver.equilibrium.MAX_ROUNDS`` rounds while the contact set settles).
     normal_increments : int
         Initial number of preload increments [-] (adapted).
+    max_preload_increment : float
+        Largest preload increment as a fraction of F_n [-] (the plastic path depends on it:
+        ``bench path`` measures mu_s against a 4x finer path; an elastic preload takes the
+        whole load at once).
     first_slide : float
         First tangential increment as a fraction of tau_c H / G, the slide at which a flat
         block would slip [-] (adapted).
+    max_slide_increment : float
+        Largest tangential increment as a fraction of tau_c H / G [-] (resolves the F_t(U)
+        curve and where inception falls: ``bench path``).
     max_slide : float
         Give up (unconverged) if sliding has not started after this multiple of tau_c H / G [-].
     max_steps : int
@@ -150,7 +157,9 @@ class SolverOptions:
     increment_tolerance: float = 1e-4
     max_iterations: int = 15
     normal_increments: int = 5
+    max_preload_increment: float = 0.5
     first_slide: float = 0.02
+    max_slide_increment: float = 0.25
     max_slide: float = 20.0
     max_steps: int = 300
 
@@ -161,7 +170,7 @@ class SolverOptions:
             raise InputError(
                 f"linear solver must be one of {LINEAR_SOLVERS}, got {self.linear_solver!r}")
         positive = ("penalty", "tangential_penalty", "penetration_tolerance", "residual_tolerance",
-                    "increment_tolerance", "first_slide", "max_slide")
+                    "increment_tolerance", "first_slide", "max_slide", "max_slide_increment")
         for name, value in ((name, getattr(self, name)) for name in positive):
             if not (math.isfinite(value) and value > 0):
                 raise InputError(f"solver option {name} must be > 0, got {value}")
@@ -175,6 +184,10 @@ class SolverOptions:
         if not (math.isfinite(self.friction_ramp) and 0.0 <= self.friction_ramp < 1.0):
             raise InputError(f"solver option friction_ramp must lie in [0, 1), got "
                              f"{self.friction_ramp}")
+        if not (math.isfinite(self.max_preload_increment)
+                and 0.0 < self.max_preload_increment <= 1.0):
+            raise InputError(f"solver option max_preload_increment must lie in (0, 1], got "
+                             f"{self.max_preload_increment}")
         if self.max_augmentations < 0:
             raise InputError(f"solver option max_augmentations must be >= 0, got "
                              f"{self.max_augmentations}")

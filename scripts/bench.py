@@ -76,7 +76,8 @@ def bench_multiscale(repeats: int = 7) -> dict:
 
 
 def add_bench_commands(bench) -> None:
-    """``roughfriction bench multiscale|fem|error|stress`` under the ``bench`` sub-parser."""
+    """``roughfriction bench multiscale|fem|path|error|stress|profile`` under the ``bench``
+    sub-parser."""
     from roughfriction.scripts.bench_fem import DEFAULT_SIZES as FEM_SIZES
     from roughfriction.scripts.bench_fem import HEADLINE_CASES as FEM_CASES
     from roughfriction.studies import convergence
@@ -97,6 +98,15 @@ def add_bench_commands(bench) -> None:
                      help="surfaces and loads F* (default the headline cases: "
                           f"{' '.join(f'{surface}:{load:g}' for surface, load in FEM_CASES)})")
     fem.set_defaults(run=cmd_bench_fem)
+
+    path = kinds.add_parser("path", help="mu_s on the default load path against a finer one, "
+                            f"each run under mpirun -> {BENCH_DIR / 'path.csv'}")
+    path.add_argument("--n", type=int, default=64, help="surface cells per side (default 64)")
+    path.add_argument("--ranks", type=int, default=2, help="MPI ranks (default 2)")
+    path.add_argument("--case", nargs="+", metavar="SURFACE:LOAD",
+                      default=[f"{surface}:{load:g}" for surface, load in FEM_CASES],
+                      help="surfaces and loads F* (default the headline cases)")
+    path.set_defaults(run=cmd_bench_path)
 
     error = kinds.add_parser("error", help="run time against error (run under mpirun) -> "
                              f"{BENCH_DIR / 'error.csv'}, error.png")
@@ -134,7 +144,7 @@ def add_bench_commands(bench) -> None:
     profile.add_argument("--n", type=int, default=DEFAULT_FEM_N,
                          help=f"surface cells per side (default {DEFAULT_FEM_N})")
     profile.set_defaults(run=cmd_bench_profile)
-    for parser in (multiscale, fem, error, matrix, profile):
+    for parser in (multiscale, fem, path, error, matrix, profile):
         parser.add_argument("--json", action="store_true", help="one JSON object on stdout")
 
 
@@ -145,6 +155,15 @@ def cmd_bench_fem(args) -> dict:
 
     cases = [parse_case(text) for text in args.case]
     return {"runs": benchmark_sizes(args.n, args.ranks, cases), "csv": str(FEM_DIR / "fem.csv")}
+
+
+def cmd_bench_path(args) -> dict:
+    """Load-path error rows (:func:`roughfriction.scripts.bench_fem.path_errors`)."""
+    from roughfriction.scripts.bench_fem import BENCH_DIR as FEM_DIR
+    from roughfriction.scripts.bench_fem import parse_case, path_errors
+
+    cases = [parse_case(text) for text in args.case]
+    return {"runs": path_errors(args.n, args.ranks, cases), "csv": str(FEM_DIR / "path.csv")}
 
 
 def cmd_bench_profile(args) -> dict:

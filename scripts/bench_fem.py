@@ -8,6 +8,12 @@ rewritten after every run so that finished rows survive a later failure; rows of
 or rank counts already in the file are kept) with wall time, peak memory summed over the
 ranks, steps, Newton iterations, mu_s and the problem size; each run's full record goes to
 ``results/bench/fem_<surface>_F<load>_N<N>_<ranks>ranks.h5``.
+
+    roughfriction bench path --n 64
+
+The load path's error per case: each case on the default path and on one ``PATH_FACTOR`` times
+finer (largest preload and sliding increments divided by it, ``SolverOptions``), written to
+``results/bench/path.csv`` with mu_s of both and their relative difference.
 """
 
 from __future__ import annotations
@@ -25,6 +31,11 @@ BENCH_DIR = Path("results/bench")
 #: (surface, F*) of the headline rows.
 HEADLINE_CASES = (("G5", 0.155), ("G5", 0.93), ("2L", 0.5), ("G1", 1.86))
 DEFAULT_SIZES = (32, 64, 128)
+#: The finer path of ``bench path`` divides the largest load increments by this [-].
+PATH_FACTOR = 4
+PATH_COLUMNS = ("surface", "load_star", "n", "ranks", "path_factor", "mu_s", "mu_s_fine_path",
+                "path_error", "newton_iterations", "fine_newton_iterations", "wall_s",
+                "fine_wall_s", "converged")
 COLUMNS = ("surface", "load_star", "n", "ranks", "cells", "reduced_dofs", "linear_solver",
            "wall_s", "peak_memory_gb", "steps", "newton_iterations", "cut_steps", "cut_iterations",
            "mu_s", "converged")
@@ -46,13 +57,16 @@ def case_stem(surface: str, load: float, n: int, ranks: int) -> str:
     return f"{surface}_F{load:g}_N{n}_{ranks}ranks"
 
 
-def run_size(surface: str, load: float, n: int, ranks: int) -> dict:
-    """Run one case and grid size through ``roughfriction.scripts.fem`` under mpirun; return
-    its row."""
-    output = BENCH_DIR / f"fem_{case_stem(surface, load, n, ranks)}.h5"
+def run_size(surface: str, load: float, n: int, ranks: int, config: Path | None = None,
+             label: str = "fem") -> dict:
+    """Run one case and grid size through ``roughfriction.scripts.fem`` under mpirun (with the
+    case file ``config``); return its row. Its record goes to ``<label>_<case_stem>.h5``."""
+    output = BENCH_DIR / f"{label}_{case_stem(surface, load, n, ranks)}.h5"
     command = ["mpirun", "-n", str(ranks), "--oversubscribe", sys.executable, "-m",
                "roughfriction.scripts.fem", surface, "--load", str(load), "--n", str(n),
                "--json", "--output", str(output)]
+    if config is not None:
+        command += ["--config", str(config)]
     output.unlink(missing_ok=True)
     finished = subprocess.run(command, stdout=subprocess.DEVNULL)  # progress, errors: stderr
     if not output.exists():
@@ -71,10 +85,10 @@ def run_size(surface: str, load: float, n: int, ranks: int) -> dict:
     return row
 
 
-def write_csv(rows: list[dict], path: Path) -> None:
+def write_csv(rows: list[dict], path: Path, columns=COLUMNS) -> None:
     """The benchmark table."""
     with open(path, "w", newline="") as file:
-        writer = csv.DictWriter(file, fieldnames=COLUMNS)
+        writer = csv.DictWriter(file, fieldnames=columns)
         writer.writeheader()
         writer.writerows(rows)
 
@@ -111,4 +125,39 @@ def benchmark_sizes(sizes: list[int], ranks: int,
             kept = read_rows(table) | {row_key(rows[-1]): rows[-1]}
             write_csv([kept[key] for key in sorted(kept)], table)
             print(json.dumps(rows[-1]), file=sys.stderr, flush=True)
+    return rows
+
+
+def finer_path_options(factor: float) -> dict:
+    """Solver options of a load path ``factor`` times finer than the default: its largest
+    preload and sliding increments divided by ``factor``."""
+    from roughfriction.case import SolverOptions
+
+    default = SolverOptions()
+    return {"max_preload_increment": default.max_preload_increment / factor,
+            "max_slide_increment": default.max_slide_increment / factor}
+
+
+def path_errors(n: int, ranks: int, cases=HEADLINE_CASES, factor: float = PATH_FACTOR
+                ) -> list[dict]:
+    """Each case on the default load path and on one ``factor`` times finer: the relative
+    difference of mu_s is the path's error estimate. Rewrites ``path.csv`` after each case."""
+    BENCH_DIR.mkdir(parents=True, exist_ok=True)
+    config = BENCH_DIR / f"path_x{factor:g}.toml"
+    config.write_text("[solver]\n" + "".join(
+        f"{key} = {value!r}\n" for key, value in finer_path_options(factor).items()))
+    rows = []
+    for surface, load in cases:
+        default = run_size(surface, load, n, ranks, label="path")
+        fine = run_size(surface, load, n, ranks, config, label=f"path_x{factor:g}")
+        rows.append({"surface": surface, "load_star": load, "n": n, "ranks": ranks,
+                     "path_factor": factor, "mu_s": default["mu_s"],
+                     "mu_s_fine_path": fine["mu_s"],
+                     "path_error": default["mu_s"] / fine["mu_s"] - 1.0,
+                     "newton_iterations": default["newton_iterations"],
+                     "fine_newton_iterations": fine["newton_iterations"],
+                     "wall_s": default["wall_s"], "fine_wall_s": fine["wall_s"],
+                     "converged": default["converged"] and fine["converged"]})
+        write_csv(rows, BENCH_DIR / "path.csv", PATH_COLUMNS)
+        print(json.dumps(rows[-1]), file=sys.stderr, flush=True)
     return rows

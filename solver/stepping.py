@@ -24,15 +24,9 @@ GROWTH = 1.5
 #: Grow the step after at most this many Newton iterations [-].
 EASY_ITERATIONS = 10
 MIN_FRACTION = 1e-3
-#: Largest preload increment as a fraction of F_n [-] (the plastic path is load-dependent, at
-#: larger increments measurably: docs/benchmarks.md; an elastic preload may take the whole load
-#: at once).
-MAX_PRELOAD_INCREMENT = 0.5
 #: The preload's last step, to F_n under force control, starts within this fraction of F_n
 #: (the steps before hold the flat, :meth:`LoadPath.preload`) [-].
 FORCE_CONTROLLED = 0.1
-#: Largest sliding increment as a fraction of tau_c H / G [-] (resolves the F_t(U) curve).
-MAX_SLIDE_INCREMENT = 0.25
 
 
 def at_inception(slipping_nodes: int, contact_nodes: int) -> bool:
@@ -149,7 +143,7 @@ class LoadPath:
         is force-controlled.
         """
         options = self.case.solver
-        largest = 1.0 if options.elastic else MAX_PRELOAD_INCREMENT  # elastic: path-free
+        largest = 1.0 if options.elastic else options.max_preload_increment  # path-free
         size = StepSize(1.0 / options.normal_increments, largest)
         equilibrium = self.equilibrium
         last = None  # force increment of the last accepted step of this call [N]
@@ -221,7 +215,8 @@ class LoadPath:
         mu_s, is then solved on to the solver's tolerances (:meth:`_tighten`)."""
         target = self.normal_force
         scale = self.flat_block_slide
-        size = StepSize(self.case.solver.first_slide * scale, MAX_SLIDE_INCREMENT * scale)
+        options = self.case.solver
+        size = StepSize(options.first_slide * scale, options.max_slide_increment * scale)
         slide = 0.0
         last = None  # increment of the last accepted sliding step [m]
         while True:
@@ -243,7 +238,7 @@ class LoadPath:
             record = self._accept("tangential", report, slide)
             if at_inception(record.slipping_nodes, record.contact_nodes):
                 return Outcome(True)
-            if slide > self.case.solver.max_slide * scale:
+            if slide > options.max_slide * scale:
                 return Outcome(False, f"no sliding inception up to u_x = {slide:.4g} m "
                                       f"({record.slipping_nodes} of {record.contact_nodes} "
                                       "contact nodes slip)")

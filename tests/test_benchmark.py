@@ -42,3 +42,24 @@ def test_a_case_is_surface_colon_load():
     assert benchmark.parse_case("G1:1.86") == ("G1", 1.86)
     with pytest.raises(InputError, match="SURFACE:LOAD"):
         benchmark.parse_case("G1")
+
+
+def test_the_path_error_compares_the_default_path_with_a_finer_one(tmp_path, monkeypatch):
+    """Each case runs twice: the second with a case file that the CLI accepts and whose largest
+    increments are the defaults over PATH_FACTOR; path_error is mu_s / mu_s(fine) - 1."""
+    from roughfriction.case import SolverOptions
+    from roughfriction.scripts.fem import read_config
+
+    def run(surface, load, n, ranks, config=None, label="fem"):
+        options = SolverOptions(**read_config(config).get("solver", {}) if config else {})
+        return {"mu_s": 0.3 + options.max_slide_increment, "newton_iterations": 10,
+                "wall_s": 1.0, "converged": True, "label": label}
+
+    monkeypatch.setattr(benchmark, "BENCH_DIR", tmp_path)
+    monkeypatch.setattr(benchmark, "run_size", run)
+    rows = benchmark.path_errors(64, 2, [("G5", 0.93)], factor=4)
+    default = SolverOptions()
+    assert rows[0]["mu_s"] == 0.3 + default.max_slide_increment
+    assert rows[0]["mu_s_fine_path"] == 0.3 + default.max_slide_increment / 4
+    assert rows[0]["path_error"] == rows[0]["mu_s"] / rows[0]["mu_s_fine_path"] - 1
+    assert (tmp_path / "path.csv").read_text().count("\n") == 2

@@ -89,7 +89,10 @@ def test_unknown_case_file_keys(rough_file, tmp_path, capsys):
                                      {"penalty": 0.0}, {"max_iterations": 0},
                                      {"friction_ramp": -0.01}, {"friction_ramp": 1.0},
                                      {"tangential_penalty": 0.0},
-                                     {"tangential_penalty": float("nan")}])
+                                     {"tangential_penalty": float("nan")},
+                                     {"max_preload_increment": 0.0},
+                                     {"max_preload_increment": 1.5},
+                                     {"max_slide_increment": 0.0}])
 def test_bad_solver_options(options):
     with pytest.raises(InputError):
         SolverOptions(**options)
