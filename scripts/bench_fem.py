@@ -141,8 +141,10 @@ def finer_path_options(factor: float) -> dict:
 def path_errors(n: int, ranks: int, cases=HEADLINE_CASES, factor: float = PATH_FACTOR
                 ) -> list[dict]:
     """Each case on the default load path and on one ``factor`` times finer: the relative
-    difference of mu_s is the path's error estimate. Rewrites ``path.csv`` after each case."""
+    difference of mu_s is the path's error estimate. Rewrites ``path.csv`` after each case
+    (keeping the rows of other cases, N or rank counts)."""
     BENCH_DIR.mkdir(parents=True, exist_ok=True)
+    table = BENCH_DIR / "path.csv"
     config = BENCH_DIR / f"path_x{factor:g}.toml"
     config.write_text("[solver]\n" + "".join(
         f"{key} = {value!r}\n" for key, value in finer_path_options(factor).items()))
@@ -158,6 +160,7 @@ def path_errors(n: int, ranks: int, cases=HEADLINE_CASES, factor: float = PATH_F
                      "fine_newton_iterations": fine["newton_iterations"],
                      "wall_s": default["wall_s"], "fine_wall_s": fine["wall_s"],
                      "converged": default["converged"] and fine["converged"]})
-        write_csv(rows, BENCH_DIR / "path.csv", PATH_COLUMNS)
+        kept = read_rows(table) | {row_key(rows[-1]): rows[-1]}
+        write_csv([kept[key] for key in sorted(kept)], table, PATH_COLUMNS)
         print(json.dumps(rows[-1]), file=sys.stderr, flush=True)
     return rows

@@ -63,3 +63,6 @@ def test_the_path_error_compares_the_default_path_with_a_finer_one(tmp_path, mon
     assert rows[0]["mu_s_fine_path"] == 0.3 + default.max_slide_increment / 4
     assert rows[0]["path_error"] == rows[0]["mu_s"] / rows[0]["mu_s_fine_path"] - 1
     assert (tmp_path / "path.csv").read_text().count("\n") == 2
+    benchmark.path_errors(128, 2, [("G5", 0.93)], factor=4)  # another N keeps the row above
+    assert sorted(benchmark.read_rows(tmp_path / "path.csv")) == [("G5", 0.93, 64, 2),
+                                                                   ("G5", 0.93, 128, 2)]
