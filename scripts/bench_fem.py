@@ -152,10 +152,11 @@ def path_errors(n: int, ranks: int, cases=HEADLINE_CASES, factor: float = PATH_F
     for surface, load in cases:
         default = run_size(surface, load, n, ranks, label="path")
         fine = run_size(surface, load, n, ranks, config, label=f"path_x{factor:g}")
+        both = default["mu_s"] is not None and fine["mu_s"] is not None  # (None: no inception)
         rows.append({"surface": surface, "load_star": load, "n": n, "ranks": ranks,
                      "path_factor": factor, "mu_s": default["mu_s"],
                      "mu_s_fine_path": fine["mu_s"],
-                     "path_error": default["mu_s"] / fine["mu_s"] - 1.0,
+                     "path_error": default["mu_s"] / fine["mu_s"] - 1.0 if both else None,
                      "newton_iterations": default["newton_iterations"],
                      "fine_newton_iterations": fine["newton_iterations"],
                      "wall_s": default["wall_s"], "fine_wall_s": fine["wall_s"],

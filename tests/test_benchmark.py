@@ -66,3 +66,17 @@ def test_the_path_error_compares_the_default_path_with_a_finer_one(tmp_path, mon
     benchmark.path_errors(128, 2, [("G5", 0.93)], factor=4)  # another N keeps the row above
     assert sorted(benchmark.read_rows(tmp_path / "path.csv")) == [("G5", 0.93, 64, 2),
                                                                    ("G5", 0.93, 128, 2)]
+
+
+def test_a_path_run_without_inception_leaves_the_error_empty(tmp_path, monkeypatch):
+    """A run that does not reach inception has no mu_s: its row says so and the others go on."""
+    def run(surface, load, n, ranks, config=None, label="fem"):
+        converged = config is None
+        return {"mu_s": 0.3 if converged else None, "newton_iterations": 10, "wall_s": 1.0,
+                "converged": converged}
+
+    monkeypatch.setattr(benchmark, "BENCH_DIR", tmp_path)
+    monkeypatch.setattr(benchmark, "run_size", run)
+    rows = benchmark.path_errors(32, 2, [("G5", 0.93), ("G1", 1.86)])
+    assert [row["path_error"] for row in rows] == [None, None]
+    assert not any(row["converged"] for row in rows)
