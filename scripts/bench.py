@@ -83,6 +83,7 @@ def add_bench_commands(bench) -> None:
     from roughfriction.studies import convergence
     from roughfriction.studies.paper import DEFAULT_FEM_N
 
+    headline = [f"{surface}:{load:g}" for surface, load in FEM_CASES]
     kinds = bench.add_subparsers(dest="bench_command", required=True)
     multiscale = kinds.add_parser("multiscale", help="time the theory over Figs. 22-28's cases "
                                   f"-> {BENCH_DIR / 'multiscale.csv'}")
@@ -93,19 +94,18 @@ def add_bench_commands(bench) -> None:
     fem.add_argument("--n", type=int, nargs="+", default=list(FEM_SIZES),
                      help=f"surface cells per side (default {' '.join(map(str, FEM_SIZES))})")
     fem.add_argument("--ranks", type=int, default=2, help="MPI ranks (default 2)")
-    fem.add_argument("--case", nargs="+", metavar="SURFACE:LOAD",
-                     default=[f"{surface}:{load:g}" for surface, load in FEM_CASES],
-                     help="surfaces and loads F* (default the headline cases: "
-                          f"{' '.join(f'{surface}:{load:g}' for surface, load in FEM_CASES)})")
+    fem.add_argument("--case", nargs="+", metavar="SURFACE:LOAD", default=headline,
+                     help=f"surfaces and loads F* (default the headline cases: "
+                          f"{' '.join(headline)})")
     fem.set_defaults(run=cmd_bench_fem)
 
     path = kinds.add_parser("path", help="mu_s on the default load path against a finer one, "
                             f"each run under mpirun -> {BENCH_DIR / 'path.csv'}")
     path.add_argument("--n", type=int, default=64, help="surface cells per side (default 64)")
     path.add_argument("--ranks", type=int, default=2, help="MPI ranks (default 2)")
-    path.add_argument("--case", nargs="+", metavar="SURFACE:LOAD",
-                      default=[f"{surface}:{load:g}" for surface, load in FEM_CASES],
-                      help="surfaces and loads F* (default the headline cases)")
+    path.add_argument("--case", nargs="+", metavar="SURFACE:LOAD", default=headline,
+                      help=f"surfaces and loads F* (default the headline cases: "
+                           f"{' '.join(headline)})")
     path.set_defaults(run=cmd_bench_path)
 
     error = kinds.add_parser("error", help="run time against error (run under mpirun) -> "

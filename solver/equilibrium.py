@@ -142,26 +142,26 @@ def line_search_step(slope: Callable[[float], float], initial_slope: float) -> f
     """
     threshold = LINE_SEARCH_SLACK * abs(initial_slope)
     low, high = 0.0, 1.0
-    trials = [(0.0, initial_slope), (1.0, slope(1.0))]
-    if trials[-1][1] <= threshold:
+    older, older_slope = 0.0, initial_slope
+    last, last_slope = 1.0, slope(1.0)
+    if last_slope <= threshold:
         return 1.0
     for _ in range(LINE_SEARCH_TRIALS):
-        (older, older_slope), (last, last_slope) = trials[-2:]
         step = np.nan
         if np.isfinite(older_slope) and np.isfinite(last_slope) and last_slope != older_slope:
             step = last - last_slope * (last - older) / (last_slope - older_slope)
         width = high - low
         if not low + 0.1 * width <= step <= high - 0.1 * width:
             step = low + 0.5 * width
-        current = slope(step)
-        trials.append((step, current))
-        if abs(current) <= threshold:
+        older, older_slope = last, last_slope
+        last, last_slope = step, slope(step)
+        if abs(last_slope) <= threshold:
             break
-        if current > 0.0:
+        if last_slope > 0.0:
             high = step
         else:
             low = step
-    return step
+    return last
 
 
 def forcing_term(state: _Iterate, normal_force: float, residual_tolerance: float) -> float:
@@ -617,7 +617,6 @@ class Equilibrium:
         predictor's step is always taken (its residual is not comparable). Returns the accepted
         step length and the iterate there.
         """
-        initial_slope = self._x1.dot(self.residual) - height_increment * current.force_error
         position, state = 0.0, current
 
         def slope(step: float) -> float:
@@ -633,6 +632,7 @@ class Equilibrium:
         if full_step:
             slope(1.0)
             return 1.0, state
+        initial_slope = self._x1.dot(self.residual) - height_increment * current.force_error
         if initial_slope < 0.0 and (not friction or self.flat.symmetric_tangent):
             return line_search_step(slope, initial_slope), state
         step = 1.0

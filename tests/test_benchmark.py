@@ -53,7 +53,7 @@ def test_the_path_error_compares_the_default_path_with_a_finer_one(tmp_path, mon
     def run(surface, load, n, ranks, config=None, label="fem"):
         options = SolverOptions(**read_config(config).get("solver", {}) if config else {})
         return {"mu_s": 0.3 + options.max_slide_increment, "newton_iterations": 10,
-                "wall_s": 1.0, "converged": True, "label": label}
+                "wall_s": 1.0, "converged": True}
 
     monkeypatch.setattr(benchmark, "BENCH_DIR", tmp_path)
     monkeypatch.setattr(benchmark, "run_size", run)

@@ -1,6 +1,7 @@
 """The load path: preload steps (solver.stepping)."""
 
 import dolfinx  # noqa: E402, F401  (an install without the FEM fails here)
+import pytest
 from mpi4py import MPI  # noqa: E402
 from roughfriction.case import FemCase, Loading, SolverOptions  # noqa: E402
 from roughfriction.geometry.generate import builtin_surface  # noqa: E402
@@ -8,6 +9,8 @@ from roughfriction.geometry.surface import surface_on_fem_grid  # noqa: E402
 from roughfriction.solver.progress import StepCut  # noqa: E402
 from roughfriction.solver.run import run  # noqa: E402
 from roughfriction.studies.paper import fem_surface  # noqa: E402
+
+pytestmark = pytest.mark.fem
 
 
 def test_a_held_preload_step_adds_at_most_the_increment_cap():
