@@ -14,8 +14,9 @@ same mu_s, to 1e-9, with it as with GAMG):
   in one iteration; as the tangent drifts (plastic cells, contact set) the old factors keep
   preconditioning it, and they are refactorised only when CG needs more than
   ``MAX_REUSED_ITERATIONS``.
-* iterative: CG + GAMG with the rigid-body near-nullspace; the hierarchy is rebuilt when the
-  iterations grow past ``REBUILD_FACTOR`` times the count of the freshly built preconditioner.
+* iterative: CG + GAMG with the rigid-body near-nullspace and plain (unsmoothed) aggregation;
+  the hierarchy is rebuilt when the iterations grow past ``REBUILD_FACTOR`` times the count of
+  the freshly built preconditioner.
 
 Either way a solve that fails with a reused preconditioner is retried once with a fresh one;
 a CG solve that finds the fresh preconditioner or the operator indefinite is retried with
@@ -54,6 +55,8 @@ MAX_KRYLOV_ITERATIONS = 1000
 #: A Krylov solve that hits its iteration limit is still used as an (inexact) Newton direction
 #: if it reduced the residual by this factor [-].
 INEXACT_ACCEPTED = 1e-2
+#: Smoothing steps of GAMG's prolongator: 0 is plain aggregation (PETSc's default is 1) [-].
+GAMG_PROLONGATOR_SMOOTHINGS = 0
 #: Rebuild the reused GAMG hierarchy when the iterations grow past this factor [-].
 REBUILD_FACTOR = 1.5
 #: Refactorise the reused Cholesky factors when CG needs more iterations than this [-].
@@ -87,6 +90,9 @@ class LinearSolver:
         elif method == "iterative":
             pc.setType("gamg")
             PETSc.Options()[f"{prefix}pc_gamg_reuse_interpolation"] = True  # keep aggregates
+            # plain aggregation: sparser coarse operators, a cheaper cycle and set-up, and no
+            # more CG iterations at the Newton solves' loose tolerances (docs/benchmarks.md)
+            PETSc.Options()[f"{prefix}pc_gamg_agg_nsmooths"] = GAMG_PROLONGATOR_SMOOTHINGS
             # Chebyshev smoothers on [0.2, 2.0] x the largest eigenvalue estimated in 30
             # iterations: PETSc's default ([0.1, 1.1], 10) underestimates it on the coarsened
             # blocks, and the smoother is then indefinite (CG: DIVERGED_INDEFINITE_PC) - on an

@@ -148,3 +148,15 @@ def test_gmres_on_cholesky_factors_that_stalls_falls_back_to_lu(monkeypatch):
     assert "gmres (direct) DIVERGED_MAX_IT" in solver.fell_back
     assert solver.ksp.getPC().getType() == "lu"
     assert residual.norm() / rhs.norm() < 1e-10
+
+
+def test_gamg_aggregates_without_smoothing_the_prolongator(tmp_path):
+    """Plain aggregation (``GAMG_PROLONGATOR_SMOOTHINGS`` = 0, PETSc's default is 1), as the
+    preconditioner's own description states it once built."""
+    _, solver = solve(laplacian(400))
+    viewer = PETSc.Viewer().createASCII(str(tmp_path / "ksp.txt"), comm=MPI.COMM_SELF)
+    solver.ksp.view(viewer)
+    viewer.destroy()
+    description = (tmp_path / "ksp.txt").read_text()
+    assert "type: gamg" in description
+    assert "Number smoothing steps 0" in description
