@@ -1,5 +1,6 @@
-"""Linear solves of solver.linear: the GMRES retry of a CG solve that meets indefiniteness, the
-inexact solve kept at the iteration limit, the fallback to factorisations."""
+"""Linear solves of solver.linear: GAMG with plain aggregation, the GMRES retry of a CG solve
+that meets indefiniteness, the inexact solve kept at the iteration limit, the fallback to
+factorisations."""
 
 import dolfinx  # noqa: E402, F401  (an install without the FEM fails here)
 import numpy as np
