@@ -93,20 +93,17 @@ def add_bench_commands(bench) -> None:
                            f"-> {BENCH_DIR / 'fem.csv'}")
     fem.add_argument("--n", type=int, nargs="+", default=list(FEM_SIZES),
                      help=f"surface cells per side (default {' '.join(map(str, FEM_SIZES))})")
-    fem.add_argument("--ranks", type=int, default=2, help="MPI ranks (default 2)")
-    fem.add_argument("--case", nargs="+", metavar="SURFACE:LOAD", default=headline,
-                     help=f"surfaces and loads F* (default the headline cases: "
-                          f"{' '.join(headline)})")
     fem.set_defaults(run=cmd_bench_fem)
 
     path = kinds.add_parser("path", help="mu_s on the default load path against a finer one, "
                             f"each run under mpirun -> {BENCH_DIR / 'path.csv'}")
     path.add_argument("--n", type=int, default=64, help="surface cells per side (default 64)")
-    path.add_argument("--ranks", type=int, default=2, help="MPI ranks (default 2)")
-    path.add_argument("--case", nargs="+", metavar="SURFACE:LOAD", default=headline,
-                      help=f"surfaces and loads F* (default the headline cases: "
-                           f"{' '.join(headline)})")
     path.set_defaults(run=cmd_bench_path)
+    for parser in (fem, path):
+        parser.add_argument("--ranks", type=int, default=2, help="MPI ranks (default 2)")
+        parser.add_argument("--case", nargs="+", metavar="SURFACE:LOAD", default=headline,
+                            help=f"surfaces and loads F* (default the headline cases: "
+                                 f"{' '.join(headline)})")
 
     error = kinds.add_parser("error", help="run time against error (run under mpirun) -> "
                              f"{BENCH_DIR / 'error.csv'}, error.png")

@@ -26,6 +26,7 @@ from pathlib import Path
 
 import h5py
 import numpy as np
+from roughfriction.case import SolverOptions
 
 BENCH_DIR = Path("results/bench")
 #: (surface, F*) of the headline rows.
@@ -131,8 +132,6 @@ def benchmark_sizes(sizes: list[int], ranks: int,
 def finer_path_options(factor: float) -> dict:
     """Solver options of a load path ``factor`` times finer than the default: its largest
     preload and sliding increments divided by ``factor``."""
-    from roughfriction.case import SolverOptions
-
     default = SolverOptions()
     return {"max_preload_increment": default.max_preload_increment / factor,
             "max_slide_increment": default.max_slide_increment / factor}

@@ -143,7 +143,7 @@ class LoadPath:
         is force-controlled.
         """
         options = self.case.solver
-        largest = 1.0 if options.elastic else options.max_preload_increment  # path-free
+        largest = 1.0 if options.elastic else options.max_preload_increment  # elastic: path-free
         size = StepSize(1.0 / options.normal_increments, largest)
         equilibrium = self.equilibrium
         last = None  # force increment of the last accepted step of this call [N]
