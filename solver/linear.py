@@ -25,8 +25,10 @@ it reduced the residual by at least ``INEXACT_ACCEPTED`` (an inexact Newton dire
 Newton loop judges convergence by the nonlinear residual alone, so this can slow it but not
 change its answer). If a fresh GAMG hierarchy still fails (GMRES breaks down on some sliding
 tangents, made non-symmetric by slipping points below the ramp pressure), or GMRES on reused
-Cholesky factors (restarted GMRES can stall on such a tangent), the solver switches for the rest
-of the run to MUMPS LU factors as preconditioner, reused like the direct method's.
+Cholesky factors (restarted GMRES can stall on such a tangent), the solver switches to MUMPS LU
+factors as preconditioner, reused like the direct method's: until the next symmetric operator
+(:meth:`LinearSolver.set_operator`), which gets the configured preconditioner again, if a
+non-symmetric operator failed; for the rest of the run if a symmetric one did.
 """
 
 from __future__ import annotations
@@ -77,18 +79,15 @@ class LinearSolver:
     """
 
     def __init__(self, comm, method: str, relative_tolerance: float = 1e-8):
-        self.method = method
+        if method not in ("direct", "iterative"):
+            raise ValueError(f"unknown linear solver {method!r}")
+        self.configured_method = self.method = method
         self.relative_tolerance = relative_tolerance
         self.ksp = PETSc.KSP().create(comm)
         self.ksp.setType("cg")
         self.ksp.setTolerances(rtol=relative_tolerance, atol=0.0, max_it=MAX_KRYLOV_ITERATIONS)
-        pc = self.ksp.getPC()
         prefix = f"roughfriction_{method}_"
-        if method == "direct":
-            pc.setType("cholesky")
-            pc.setFactorSolverType("mumps")
-        elif method == "iterative":
-            pc.setType("gamg")
+        if method == "iterative":
             PETSc.Options()[f"{prefix}pc_gamg_reuse_interpolation"] = True  # keep aggregates
             # plain aggregation: sparser coarse operators, a cheaper cycle and set-up, and no
             # more CG iterations at the Newton solves' loose tolerances (docs/benchmarks.md)
@@ -100,20 +99,25 @@ class LinearSolver:
             # surfaces on 2x refined meshes (docs/benchmarks.md)
             PETSc.Options()[f"{prefix}mg_levels_ksp_chebyshev_esteig"] = "0,0.2,0,2.0"
             PETSc.Options()[f"{prefix}mg_levels_esteig_ksp_max_it"] = 30
-        else:
-            raise ValueError(f"unknown linear solver {method!r}")
         self.ksp.setOptionsPrefix(prefix)
         self.ksp.setFromOptions()
         self.ksp.setNormType(PETSc.KSP.NormType.UNPRECONDITIONED)
-        self._fresh_iterations = None  # iterations of the last solve with a fresh preconditioner
-        self._rebuild = True
+        self._precondition_as_configured()
         self.last_iterations = 0
         self.rebuilds = 0
-        self.fell_back = ""  # why GAMG or Cholesky gave way to LU factors, if they did
+        self.fell_back = ""  # why GAMG or Cholesky last gave way to LU factors, if they did
+        self.fallbacks = 0  # how many times they did
+        self._symmetric = True  # the operator is
+        self._factors_until_symmetric = False  # LU factors only for non-symmetric operators
 
     def set_operator(self, matrix: PETSc.Mat, symmetric: bool = True) -> None:
         """Use ``matrix`` (new values, same pattern) for the next solves; CG if it is
-        ``symmetric``, else GMRES."""
+        ``symmetric``, else GMRES. A symmetric operator ends an LU fallback that a
+        non-symmetric one started."""
+        self._symmetric = symmetric
+        if symmetric and self._factors_until_symmetric:
+            self._factors_until_symmetric = False
+            self._precondition_as_configured()
         self._use("cg" if symmetric else "gmres")
         self.ksp.setOperators(matrix)
         if self._fresh_iterations is not None:
@@ -152,6 +156,8 @@ class LinearSolver:
             if self.ksp.getPC().getType() == "lu":
                 raise LinearSolveError(failure)
             self.fell_back = failure
+            self.fallbacks += 1
+            self._factors_until_symmetric = not self._symmetric
             self._precondition_with_factors()
             return self.solve(rhs, solution, relative_tolerance=relative_tolerance)
         self.last_iterations = max(self.ksp.getIterationNumber(), 1)
@@ -159,9 +165,22 @@ class LinearSolver:
             self._fresh_iterations = self.last_iterations
         return self.last_iterations
 
+    def _precondition_as_configured(self) -> None:
+        """Precondition with MUMPS Cholesky factors (direct) or GAMG (iterative), built afresh
+        at the next solve."""
+        self.method = self.configured_method
+        pc = self.ksp.getPC()
+        if self.method == "direct":
+            pc.setType("cholesky")
+            pc.setFactorSolverType("mumps")
+        else:
+            pc.setType("gamg")
+        pc.setFromOptions()  # the options of the prefix (GAMG's above), and the user's
+        self._rebuild, self._fresh_iterations = True, None
+
     def _precondition_with_factors(self) -> None:
-        """From now on precondition with MUMPS LU factors of the operator, reused as the
-        direct method reuses its Cholesky factors (LU: the operator may be non-symmetric)."""
+        """Precondition with MUMPS LU factors of the operator, reused as the direct method
+        reuses its Cholesky factors (LU: the operator may be non-symmetric)."""
         self.method = "direct"
         pc = self.ksp.getPC()
         pc.setType("lu")

@@ -220,6 +220,7 @@ def run_loads(case: FemCase, loads: Sequence[float], comm: MPI.Comm = MPI.COMM_W
             directory = Path(directory) / f"F{loads[index]:g}"
         fields = FieldWriter(directory, block, solid, flat) if directory else None
 
+        fallbacks = equilibrium.linear_solver.fallbacks
         time_mark = time.perf_counter()
         if preload.converged:
             preload = path.preload(load_case.normal_force)
@@ -247,7 +248,9 @@ def run_loads(case: FemCase, loads: Sequence[float], comm: MPI.Comm = MPI.COMM_W
         timings = {"setup_s": setup_s, "preload_s": preload_s, "sliding_s": sliding_s,
                    "total_s": setup_s + preload_s + sliding_s}
         run_sizes = {**sizes, "peak_memory_gb": comm.allreduce(peak_memory_gb(), op=MPI.SUM),
-                     "linear_solver_fallback": equilibrium.linear_solver.fell_back}
+                     "linear_solver_fallback": (equilibrium.linear_solver.fell_back
+                                                if equilibrium.linear_solver.fallbacks > fallbacks
+                                                else "")}
         result = FemResult(list(path.records), outcome.converged, outcome.message,
                            case.loading.normal_only, timings, run_sizes)
         runs[index] = FemRun(result, maps, equilibrium, block)

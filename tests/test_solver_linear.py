@@ -149,6 +149,19 @@ def test_gmres_on_cholesky_factors_that_stalls_falls_back_to_lu(monkeypatch):
     assert "gmres (direct) DIVERGED_MAX_IT" in solver.fell_back
     assert solver.ksp.getPC().getType() == "lu"
     assert residual.norm() / rhs.norm() < 1e-10
+    # the next symmetric operator gets Cholesky factors again (and solves in one iteration)
+    solver.set_operator(laplacian(size), symmetric=True)
+    assert solver.ksp.getPC().getType() == "cholesky" and solver.method == "direct"
+    solver.solve(rhs, solution)
+    assert solver.last_iterations == 1 and solver.fallbacks == 1
+
+
+def test_a_fallback_on_a_symmetric_operator_keeps_the_factors(monkeypatch):
+    """GAMG or CG that fail on a symmetric operator would fail again on the next: the LU
+    factors stay."""
+    solver, _ = limited_solve(monkeypatch, 2)
+    solver.set_operator(laplacian(40), symmetric=True)
+    assert solver.ksp.getPC().getType() == "lu" and solver.method == "direct"
 
 
 def test_gamg_aggregates_without_smoothing_the_prolongator(tmp_path):
