@@ -123,13 +123,9 @@ def test_gamg_stays_definite_at_first_contact_of_a_refined_rough_surface(monkeyp
     assert reasons and min(reasons) > 0
 
 
-def test_gmres_on_cholesky_factors_that_stalls_falls_back_to_lu(monkeypatch):
-    """The direct method preconditions a non-symmetric operator with Cholesky factors of its
-    upper triangle, which need not help: tridiag(-1 - s, 2, -1 + s) with s = 0.9 is far from
-    its upper triangle's symmetric matrix, and 3 GMRES iterations on those factors do not reduce
-    the residual 100x; the solver switches to LU factors and solves."""
-    monkeypatch.setattr("roughfriction.solver.linear.MAX_KRYLOV_ITERATIONS", 3)
-    size, skew = 200, 0.9
+def skewed_laplacian(size: int, skew: float = 0.9) -> PETSc.Mat:
+    """tridiag(-1 - s, 2, -1 + s): non-symmetric, far from its upper triangle's symmetric
+    matrix."""
     matrix = PETSc.Mat().createAIJ([size, size], nnz=3, comm=MPI.COMM_SELF)
     for i in range(size):
         matrix.setValue(i, i, 2.0)
@@ -138,6 +134,17 @@ def test_gmres_on_cholesky_factors_that_stalls_falls_back_to_lu(monkeypatch):
         if i < size - 1:
             matrix.setValue(i, i + 1, -1.0 + skew)
     matrix.assemble()
+    return matrix
+
+
+def test_gmres_on_cholesky_factors_that_stalls_falls_back_to_lu(monkeypatch):
+    """The direct method preconditions a non-symmetric operator with Cholesky factors of its
+    upper triangle, which need not help: tridiag(-1 - s, 2, -1 + s) with s = 0.9 is far from
+    its upper triangle's symmetric matrix, and 3 GMRES iterations on those factors do not reduce
+    the residual 100x; the solver switches to LU factors and solves."""
+    monkeypatch.setattr("roughfriction.solver.linear.MAX_KRYLOV_ITERATIONS", 3)
+    size = 200
+    matrix = skewed_laplacian(size)
     rhs = matrix.createVecLeft()
     rhs.setArray(np.sin(np.linspace(0.0, 40.0, size)))
     solution, residual = rhs.duplicate(), rhs.duplicate()
@@ -154,6 +161,26 @@ def test_gmres_on_cholesky_factors_that_stalls_falls_back_to_lu(monkeypatch):
     assert solver.ksp.getPC().getType() == "cholesky" and solver.method == "direct"
     solver.solve(rhs, solution)
     assert solver.last_iterations == 1 and solver.fallbacks == 1
+
+
+def test_gamg_returns_after_a_fallback_on_a_non_symmetric_operator(monkeypatch):
+    """The iterative method's case (a sliding tangent at inception): GMRES with GAMG that
+    stalls on a non-symmetric operator gives way to LU factors, and the next symmetric operator
+    is solved with GAMG again."""
+    monkeypatch.setattr("roughfriction.solver.linear.MAX_KRYLOV_ITERATIONS", 1)
+    size = 200
+    matrix = skewed_laplacian(size)
+    rhs = matrix.createVecLeft()
+    rhs.setArray(np.sin(np.linspace(0.0, 40.0, size)))
+    solution = rhs.duplicate()
+    solver = LinearSolver(MPI.COMM_SELF, "iterative", relative_tolerance=1e-10)
+    solver.set_operator(matrix, symmetric=False)
+    solver.solve(rhs, solution)
+    assert "gmres (iterative) DIVERGED_MAX_IT" in solver.fell_back
+    assert solver.ksp.getPC().getType() == "lu" and solver.method == "direct"
+    solver.set_operator(laplacian(size), symmetric=True)
+    assert solver.ksp.getPC().getType() == "gamg" and solver.method == "iterative"
+    assert solver.fallbacks == 1
 
 
 def test_a_fallback_on_a_symmetric_operator_keeps_the_factors(monkeypatch):
