@@ -113,7 +113,8 @@ class ContactResponse:
     node_force : numpy.ndarray
         Contact contribution to the nodal residual R [N], shape (N^2, 3).
     stiffness : callable
-        Computes :attr:`node_blocks` (once, when a linear solve needs it).
+        Computes :attr:`node_blocks`, or with ``coupling_only`` :attr:`coupling_blocks` (once,
+        when a linear solve needs it).
     node_height_derivative : numpy.ndarray
         dR_a/dh [N/m], shape (N^2, 3).
     coupled : bool
@@ -133,7 +134,7 @@ class ContactResponse:
     traction: np.ndarray
     stick_offset: np.ndarray
     node_force: np.ndarray
-    stiffness: Callable[[], np.ndarray]
+    stiffness: Callable[..., tuple[np.ndarray, np.ndarray]]
     node_height_derivative: np.ndarray
     coupled: bool
     symmetric: bool
@@ -144,6 +145,12 @@ class ContactResponse:
         dR_a/du_b [N/m] for the 25 neighbours b (``NEIGHBOURS``; a neighbour met twice on a
         grid smaller than 5 holds its block once), shape (m, 25, 3, 3)."""
         return self.stiffness()
+
+    @cached_property
+    def coupling_blocks(self) -> tuple[np.ndarray, np.ndarray]:
+        """The part of :attr:`node_blocks` that is the ramp's coupling dt/dp (the non-symmetric
+        part of the tangent), as nodes and blocks [N/m] in the same layout."""
+        return self.stiffness(coupling_only=True)
 
     @property
     def node_stiffness(self) -> np.ndarray:
@@ -319,22 +326,25 @@ class RigidFlat:
         height_derivative = np.column_stack([-coupling * pressure_height[:, None],
                                              pressure_height])
 
-        def node_stiffness() -> np.ndarray:
+        def node_stiffness(coupling_only: bool = False) -> tuple[np.ndarray, np.ndarray]:
             # tangent per unit area [Pa/m] as 3 x 3 component matrices over the grid nodes:
-            # shear by the point tangent, pressure by dp_q/du_z,b = eps (W^T/w) (W N)
+            # shear by the point tangent, pressure by dp_q/du_z,b = eps (W^T/w) (W N), and the
+            # ramp's coupling dt/dp (alone if ``coupling_only``)
+            pressure_gradient = (self._point_pressure @ sparse.diags(stiffness)
+                                 @ self._gap_gradient)
+            blocks = np.full((3, 3), None, dtype=object)
+            for i in range(2):
+                blocks[i, 2] = -(self._to_nodes @ sparse.diags(coupling[:, i])
+                                 @ pressure_gradient)
+            if coupling_only:
+                return self._node_tangent(blocks)
             tangential = np.eye(2) - np.where(slipping, 1.0, 0.0)[:, None, None] * np.einsum(
                 "ni,nj->nij", direction, direction)
             shear = np.where(frictional, eps_t * scale, 0.0)[:, None, None] * tangential
-            pressure_gradient = (self._point_pressure @ sparse.diags(stiffness)
-                                 @ self._gap_gradient)
-            blocks = np.empty((3, 3), dtype=object)
             for i in range(2):
                 for j in range(2):
                     blocks[i, j] = (self._to_nodes @ sparse.diags(shear[:, i, j])
                                     @ self._interpolation)
-                blocks[i, 2] = -(self._to_nodes @ sparse.diags(coupling[:, i])
-                                 @ pressure_gradient)
-                blocks[2, i] = None
             blocks[2, 2] = self._to_nodes @ pressure_gradient
             return self._node_tangent(blocks)
 

@@ -215,6 +215,7 @@ class Equilibrium:
         self._tangent_full = None  # K_elastic + K_plastic on the whole mesh, once needed
         self._solid_tangent = None  # its P^T K P
         self.tangent = None  # P^T K P + contact, created at the first assembly
+        self._symmetric_part = None  # the tangent without dt/dp, once it is not symmetric
         self._symmetric = True  # the tangent, at its last assembly
         self._coupled = False  # some slipping point's cap followed its pressure there
         self.residual = reduction.create_reduced_vector()
@@ -309,19 +310,47 @@ class Equilibrium:
                                       structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
             if plastic is not None:
                 self._add_plastic_correction(plastic)
-        # one block row (3 x 75 values, row-major) per owned surface node with any stiffness
-        nodes, blocks = contact.node_blocks
+        self._add_node_blocks(self.tangent, *contact.node_blocks)
+        self.tangent.assemble()
+        self._symmetric = self.comm.allreduce(contact.symmetric, op=MPI.LAND)
+        self._coupled = self.comm.allreduce(contact.coupled, op=MPI.LOR)
+        if not self._symmetric:
+            self._assemble_symmetric_part(contact)
+
+    def _add_node_blocks(self, matrix: PETSc.Mat, nodes: np.ndarray, blocks: np.ndarray,
+                         scale: float = 1.0) -> None:
+        """Add ``scale`` times the contact's 3 x 3 ``blocks`` [N/m] of the surface ``nodes``
+        (grid nodes) and their 25 neighbours to ``matrix``: one block row (3 x 75 values,
+        row-major) per owned node."""
         owned = self._owned_position[nodes]
         touching = owned >= 0
         if np.any(touching):
             owned = owned[touching]
-            self.tangent.setValuesBlockedRCV(
+            matrix.setValuesBlockedRCV(
                 self._contact_rows[owned, :1] // 3, self._contact_columns[owned],
-                blocks[touching].transpose(0, 2, 1, 3).reshape(len(owned), -1),
+                scale * blocks[touching].transpose(0, 2, 1, 3).reshape(len(owned), -1),
                 addv=PETSc.InsertMode.ADD_VALUES)
-        self.tangent.assemble()
-        self._symmetric = self.comm.allreduce(contact.symmetric, op=MPI.LAND)
-        self._coupled = self.comm.allreduce(contact.coupled, op=MPI.LOR)
+
+    def _assemble_symmetric_part(self, contact: ContactResponse) -> None:
+        """The preconditioning matrix of a non-symmetric tangent: the tangent without the
+        ramp's coupling dt/dp (:attr:`ContactResponse.coupling_blocks`), symmetric positive
+        definite as the symmetric tangent is."""
+        if self._symmetric_part is None:
+            self._symmetric_part = self.tangent.duplicate(copy=True)
+            if self._near_nullspace is not None:
+                self._symmetric_part.setNearNullSpace(self._near_nullspace)
+        else:
+            self.tangent.copy(self._symmetric_part,
+                              structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
+        self._add_node_blocks(self._symmetric_part, *contact.coupling_blocks, scale=-1.0)
+        self._symmetric_part.assemble()
+
+    def _set_operator(self) -> None:
+        """Hand the last assembled tangent to the linear solver, with its symmetric part to
+        build the preconditioner from if it is not symmetric."""
+        self.linear_solver.set_operator(
+            self.tangent, self._symmetric,
+            preconditioning=None if self._symmetric else self._symmetric_part)
 
     def _add_plastic_correction(self, plastic) -> None:
         """Add P^T K_plastic P to the tangent, assembled and reduced on the couplings of the
@@ -582,7 +611,7 @@ class Equilibrium:
         x2 is solved again, tighter, until dh ||K x2 + b|| <= ``tolerance`` (||R|| + |r|)
         (||b|| dh, the force of moving the flat, can be far above them near convergence)."""
         c = self._force_row
-        self.linear_solver.set_operator(self.tangent, self._symmetric)
+        self._set_operator()
         self.residual.scale(-1.0)
         krylov = self.linear_solver.solve(self.residual, self._x1, relative_tolerance=tolerance)
         self.residual.scale(-1.0)  # R again, for the line search
@@ -649,7 +678,7 @@ class Equilibrium:
         [N/m] (< 0: lowering the flat loads it): residual, b, c and tangent assembled there,
         one linear solve K du/dh = -b, c.du/dh + d. du/dh is kept for :meth:`follow_path`."""
         self.assemble_tangent(self.assemble(0.0, friction=False))
-        self.linear_solver.set_operator(self.tangent, self._symmetric)
+        self._set_operator()
         self._solve_height_column(PATH_SLOPE_TOLERANCE)
         if self._path_tangent is None:
             self._path_tangent = self._x2.duplicate()
@@ -693,7 +722,7 @@ class Equilibrium:
         committed = [self._committed[0]] + ([self._previous[0]] if self._previous else [])
         for item in (self.displacement, *committed, self._elastic_tangent, self._elastic_system,
                      self._tangent_full, self._solid_tangent, self._residual_full, self.tangent,
-                     self.residual,
+                     self._symmetric_part, self.residual,
                      self._height_column, self._force_row, self._x1, self._x2,
                      self._path_tangent, self._near_nullspace):
             if item is not None:

@@ -4,11 +4,10 @@ iterations and load steps.
 The reduced tangent is symmetric positive definite (J2 consistent tangent with hardening,
 penalty contact, the slip tangent of the friction cap), so both methods are preconditioned CG,
 except where Newton uses the exact tangent while a slipping node's cap follows its pressure
-(below the ramp pressure, see :mod:`solver.contact` and :mod:`solver.equilibrium`): a few
-non-symmetric entries, for which the same preconditioner drives
-right-preconditioned GMRES (a Cholesky factorisation then uses the upper triangle: an
-approximate inverse, which GMRES corrects; a random 16 x 16 surface at F* = 0.3 slides to the
-same mu_s, to 1e-9, with it as with GAMG):
+(below the ramp pressure, see :mod:`solver.contact` and :mod:`solver.equilibrium`): the
+coupling dt/dp, strong (tau_c / p_r = 23 at the default ramp) and non-normal, is solved by
+right-preconditioned GMRES (``GMRES_RESTART`` vectors) with the preconditioner built from the
+tangent without it, its symmetric positive definite part:
 
 * direct: the preconditioner is a MUMPS Cholesky factorisation. While it is fresh CG converges
   in one iteration; as the tangent drifts (plastic cells, contact set) the old factors keep
@@ -28,7 +27,8 @@ tangents, made non-symmetric by slipping points below the ramp pressure), or GMR
 Cholesky factors (restarted GMRES can stall on such a tangent), the solver switches to MUMPS LU
 factors as preconditioner, reused like the direct method's: until the next symmetric operator
 (:meth:`LinearSolver.set_operator`), which gets the configured preconditioner again, if a
-non-symmetric operator failed; for the rest of the run if a symmetric one did.
+non-symmetric operator failed; for the rest of the run if a symmetric one did. LU factors are
+the operator's own.
 """
 
 from __future__ import annotations
@@ -54,6 +54,8 @@ def converged_reason_name(reason: int) -> str:
 
 #: Krylov iterations per solve [-].
 MAX_KRYLOV_ITERATIONS = 1000
+#: Krylov vectors GMRES keeps before it restarts (PETSc's default is 30) [-].
+GMRES_RESTART = 200
 #: A Krylov solve that hits its iteration limit is still used as an (inexact) Newton direction
 #: if it reduced the residual by this factor [-].
 INEXACT_ACCEPTED = 1e-2
@@ -99,6 +101,11 @@ class LinearSolver:
             # surfaces on 2x refined meshes (docs/benchmarks.md)
             PETSc.Options()[f"{prefix}mg_levels_ksp_chebyshev_esteig"] = "0,0.2,0,2.0"
             PETSc.Options()[f"{prefix}mg_levels_esteig_ksp_max_it"] = 30
+        # GMRES (set by _use) keeps GMRES_RESTART Krylov vectors and orthogonalises them once
+        # more where classical Gram-Schmidt loses orthogonality: on the exact tangent at sliding
+        # inception, strongly non-normal, it stalls with PETSc's default restart of 30
+        PETSc.Options()[f"{prefix}ksp_gmres_restart"] = GMRES_RESTART
+        PETSc.Options()[f"{prefix}ksp_gmres_cgs_refinement_type"] = "refine_ifneeded"
         self.ksp.setOptionsPrefix(prefix)
         self.ksp.setFromOptions()
         self.ksp.setNormType(PETSc.KSP.NormType.UNPRECONDITIONED)
@@ -108,18 +115,28 @@ class LinearSolver:
         self.fell_back = ""  # why GAMG or Cholesky last gave way to LU factors, if they did
         self.fallbacks = 0  # how many times they did
         self._symmetric = True  # the operator is
+        self._preconditioning = None  # handle of the matrix the preconditioner is built from
         self._factors_until_symmetric = False  # LU factors only for non-symmetric operators
 
-    def set_operator(self, matrix: PETSc.Mat, symmetric: bool = True) -> None:
+    def set_operator(self, matrix: PETSc.Mat, symmetric: bool = True,
+                     preconditioning: PETSc.Mat | None = None) -> None:
         """Use ``matrix`` (new values, same pattern) for the next solves; CG if it is
-        ``symmetric``, else GMRES. A symmetric operator ends an LU fallback that a
-        non-symmetric one started."""
+        ``symmetric``, else GMRES, with the preconditioner built from the symmetric positive
+        definite ``preconditioning`` matrix if given (not from LU factors, which are the
+        operator's). A symmetric operator ends an LU fallback that a non-symmetric one
+        started."""
         self._symmetric = symmetric
         if symmetric and self._factors_until_symmetric:
             self._factors_until_symmetric = False
             self._precondition_as_configured()
         self._use("cg" if symmetric else "gmres")
-        self.ksp.setOperators(matrix)
+        if preconditioning is None or self.ksp.getPC().getType() == "lu":
+            preconditioning = matrix
+        if preconditioning.handle != self._preconditioning:
+            # a reused preconditioner keeps its matrix: build it from the new one
+            self._preconditioning = preconditioning.handle
+            self._rebuild = True
+        self.ksp.setOperators(matrix, preconditioning)
         if self._fresh_iterations is not None:
             limit = (MAX_REUSED_ITERATIONS if self.method == "direct"
                      else REBUILD_FACTOR * self._fresh_iterations)
@@ -131,6 +148,8 @@ class LinearSolver:
             self.ksp.setType(krylov)
             self.ksp.setPCSide(PETSc.PC.Side.LEFT if krylov == "cg" else PETSc.PC.Side.RIGHT)
             self.ksp.setNormType(PETSc.KSP.NormType.UNPRECONDITIONED)
+            if krylov == "gmres":
+                self.ksp.setFromOptions()  # the prefix's GMRES options (__init__)
 
     def solve(self, rhs: PETSc.Vec, solution: PETSc.Vec, warm_start: bool = False,
               relative_tolerance: float | None = None) -> int:
@@ -159,6 +178,9 @@ class LinearSolver:
             self.fallbacks += 1
             self._factors_until_symmetric = not self._symmetric
             self._precondition_with_factors()
+            operator = self.ksp.getOperators()[0]
+            self._preconditioning = operator.handle
+            self.ksp.setOperators(operator, operator)
             return self.solve(rhs, solution, relative_tolerance=relative_tolerance)
         self.last_iterations = max(self.ksp.getIterationNumber(), 1)
         if fresh:

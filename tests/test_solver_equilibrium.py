@@ -158,6 +158,42 @@ def test_sliding_goes_on_with_the_exact_tangent_where_the_symmetric_one_stalls(m
     assert result.records[-1].slipping_nodes == result.records[-1].contact_nodes
 
 
+def test_a_non_symmetric_tangent_is_preconditioned_by_its_symmetric_part(monkeypatch):
+    """The case above: every exact (non-symmetric) tangent reaches the linear solver with a
+    preconditioning matrix that is symmetric and differs from it only in the ramp's coupling
+    dt/dp, the shear rows' normal columns."""
+    from roughfriction.solver.linear import LinearSolver
+    from roughfriction.studies.refinement import refined_case
+    from scipy import sparse
+
+    def scipy_matrix(matrix):
+        return sparse.csr_matrix(matrix.getValuesCSR()[::-1], shape=matrix.getSize())
+
+    checked = []
+    set_operator = LinearSolver.set_operator
+
+    def spy(solver, matrix, symmetric=True, preconditioning=None):
+        if not symmetric:
+            tangent, part = scipy_matrix(matrix), scipy_matrix(preconditioning)
+            scale = abs(tangent).max()
+            asymmetry = abs(part - part.T).max() / scale
+            coupling = sparse.csr_matrix(tangent - part)
+            coupling.data[abs(coupling.data) < 1e-12 * scale] = 0.0
+            coupling.eliminate_zeros()
+            rows, columns = coupling.nonzero()
+            checked.append((asymmetry, coupling.nnz, np.all(rows % 3 != 2),
+                            np.all(columns % 3 == 2)))
+        set_operator(solver, matrix, symmetric, preconditioning)
+
+    monkeypatch.setattr(LinearSolver, "set_operator", spy)
+    case = refined_case(FemCase(surface_on_fem_grid(builtin_surface("G5"), 4), Loading(0.155)), 2)
+    result = run(case, MPI.COMM_SELF, progress=lambda record: None).result
+    assert result.converged, result.message
+    assert checked
+    for asymmetry, couplings, shear_rows, normal_columns in checked:
+        assert asymmetry < 1e-12 and couplings > 0 and shear_rows and normal_columns
+
+
 def test_the_forcing_term_is_never_tighter_than_the_newton_tolerance_needs():
     """Far from the solution the Krylov tolerance is 0.1 x the relative residual, at most 1e-3;
     near it, half the Newton tolerance over the relative residual (at most 0.1): a solve to

@@ -8,6 +8,7 @@ import pytest
 from mpi4py import MPI  # noqa: E402
 from petsc4py import PETSc  # noqa: E402
 from roughfriction.solver.linear import (  # noqa: E402
+    GMRES_RESTART,
     INEXACT_ACCEPTED,
     LinearSolver,
 )
@@ -181,6 +182,95 @@ def test_gamg_returns_after_a_fallback_on_a_non_symmetric_operator(monkeypatch):
     solver.set_operator(laplacian(size), symmetric=True)
     assert solver.ksp.getPC().getType() == "gamg" and solver.method == "iterative"
     assert solver.fallbacks == 1
+
+
+def two_fields(size: int, coupling: float) -> PETSc.Mat:
+    """[[L, c I], [0, L]] with L the 5-point Laplacian of a size x size grid: two fields, the
+    first driven by the second (as a slipping point's shear by its pressure), non-normal for a
+    large coupling c; c = 0 is its symmetric positive definite part."""
+    cells = size * size
+    matrix = PETSc.Mat().createAIJ([2 * cells, 2 * cells], nnz=6, comm=MPI.COMM_SELF)
+    for field in range(2):
+        for i, j in np.ndindex(size, size):
+            row = field * cells + i * size + j
+            matrix.setValue(row, row, 4.0)
+            for a, b in ((i - 1, j), (i + 1, j), (i, j - 1), (i, j + 1)):
+                if 0 <= a < size and 0 <= b < size:
+                    matrix.setValue(row, field * cells + a * size + b, -1.0)
+    if coupling:
+        for row in range(cells):
+            matrix.setValue(row, cells + row, coupling)
+    matrix.assemble()
+    return matrix
+
+
+def two_field_solve(preconditioning: PETSc.Mat | None) -> LinearSolver:
+    """The iterative solver after a GMRES solve of two_fields(64, 100) x = b to 1e-8, with
+    the preconditioner built from ``preconditioning`` (default: the operator)."""
+    matrix = two_fields(64, 100.0)
+    rhs = matrix.createVecLeft()
+    rhs.setArray(np.sin(np.linspace(0.0, 40.0, rhs.getSize())))
+    solution, residual = rhs.duplicate(), rhs.duplicate()
+    solver = LinearSolver(MPI.COMM_SELF, "iterative", relative_tolerance=1e-8)
+    solver.set_operator(matrix, symmetric=False, preconditioning=preconditioning)
+    solver.solve(rhs, solution)
+    matrix.mult(solution, residual)
+    residual.axpy(-1.0, rhs)
+    assert residual.norm() / rhs.norm() < 1e-8
+    return solver
+
+
+def test_gmres_with_gamg_of_the_symmetric_part_solves_a_non_normal_operator():
+    """The sliding tangent's case: GAMG built from the operator's symmetric positive definite
+    part drives GMRES to the tolerance; GAMG built from the strongly coupled operator itself
+    does not, and the solver falls back to LU factors."""
+    symmetric_part = two_fields(64, 0.0)
+    solver = two_field_solve(symmetric_part)
+    assert solver.fallbacks == 0 and solver.ksp.getPC().getType() == "gamg"
+    assert solver.ksp.getOperators()[1].handle == symmetric_part.handle
+    assert two_field_solve(None).fallbacks == 1
+
+
+def test_gmres_keeps_its_krylov_vectors_past_petscs_default_restart(tmp_path):
+    """GMRES restarts after ``GMRES_RESTART`` (PETSc's default, 30, stalls on the exact
+    tangent at sliding inception) and orthogonalises again where needed, as the solver's own
+    description states it."""
+    solver = two_field_solve(two_fields(64, 0.0))
+    viewer = PETSc.Viewer().createASCII(str(tmp_path / "ksp.txt"), comm=MPI.COMM_SELF)
+    solver.ksp.view(viewer)
+    viewer.destroy()
+    description = (tmp_path / "ksp.txt").read_text()
+    assert f"restart={GMRES_RESTART}," in description
+    assert "iterative refinement when needed" in description
+
+
+def test_a_new_preconditioning_matrix_rebuilds_and_lu_factors_the_operator():
+    """A reused preconditioner keeps the matrix it was built from, so a new preconditioning
+    matrix rebuilds it; LU factors (the fallback) are the operator's, not the symmetric
+    part's."""
+    size = 200
+    matrix, symmetric_part = skewed_laplacian(size), laplacian(size)
+    rhs = matrix.createVecLeft()
+    rhs.setArray(np.sin(np.linspace(0.0, 40.0, size)))
+    solution = rhs.duplicate()
+    solver = LinearSolver(MPI.COMM_SELF, "iterative", relative_tolerance=1e-6)
+    for _ in range(2):
+        solver.set_operator(symmetric_part, symmetric=True)
+        solver.solve(rhs, solution)
+    assert solver.rebuilds == 1
+    solver.set_operator(matrix, symmetric=False, preconditioning=symmetric_part)
+    solver.solve(rhs, solution)
+    assert solver.rebuilds == 1  # the same preconditioning matrix
+    solver.set_operator(matrix, symmetric=False, preconditioning=laplacian(size))
+    solver.solve(rhs, solution)
+    assert solver.rebuilds == 2
+    solver.ksp.setTolerances(max_it=1)  # GMRES fails: LU factors
+    solver.set_operator(matrix, symmetric=False, preconditioning=symmetric_part)
+    solver.solve(rhs, solution)
+    assert solver.ksp.getPC().getType() == "lu"
+    assert solver.ksp.getOperators()[1].handle == matrix.handle
+    solver.set_operator(matrix, symmetric=False, preconditioning=symmetric_part)
+    assert solver.ksp.getOperators()[1].handle == matrix.handle
 
 
 def test_a_fallback_on_a_symmetric_operator_keeps_the_factors(monkeypatch):
