@@ -28,11 +28,17 @@ Cholesky factors (restarted GMRES can stall on such a tangent), the solver switc
 factors as preconditioner, reused like the direct method's: until the next symmetric operator
 (:meth:`LinearSolver.set_operator`), which gets the configured preconditioner again, if a
 non-symmetric operator failed; for the rest of the run if a symmetric one did. LU factors are
-the operator's own.
+the operator's own, within a share of the node's memory (:func:`factor_memory_mb`): factors
+that fail, or would need more, fail the solve (the Newton step is cut) and the configured
+preconditioner returns.
 """
 
 from __future__ import annotations
 
+import math
+from pathlib import Path
+
+from mpi4py import MPI
 from petsc4py import PETSc
 
 
@@ -65,6 +71,8 @@ GAMG_PROLONGATOR_SMOOTHINGS = 0
 REBUILD_FACTOR = 1.5
 #: Refactorise the reused Cholesky factors when CG needs more iterations than this [-].
 MAX_REUSED_ITERATIONS = 10
+#: Share of a node's available memory that LU factors of the fallback may take [-].
+FACTOR_MEMORY_SHARE = 0.8
 
 
 class LinearSolver:
@@ -173,14 +181,18 @@ class LinearSolver:
                        f"{converged_reason_name(reason)} ({reason}) after "
                        f"{self.ksp.getIterationNumber()} iterations")
             if self.ksp.getPC().getType() == "lu":
+                # the factors failed too (or hit their memory bound): the configured
+                # preconditioner again for the cut step's solves
+                self._factors_until_symmetric = False
+                self._precondition_as_configured()
                 raise LinearSolveError(failure)
             self.fell_back = failure
             self.fallbacks += 1
             self._factors_until_symmetric = not self._symmetric
-            self._precondition_with_factors()
             operator = self.ksp.getOperators()[0]
             self._preconditioning = operator.handle
             self.ksp.setOperators(operator, operator)
+            self._precondition_with_factors()
             return self.solve(rhs, solution, relative_tolerance=relative_tolerance)
         self.last_iterations = max(self.ksp.getIterationNumber(), 1)
         if fresh:
@@ -222,9 +234,38 @@ class LinearSolver:
         self.ksp.destroy()
 
     def _apply(self, rhs: PETSc.Vec, solution: PETSc.Vec, fresh: bool) -> None:
-        """One KSP solve, rebuilding the preconditioner if ``fresh``."""
-        self.ksp.getPC().setReusePreconditioner(not fresh)
+        """One KSP solve, rebuilding the preconditioner if ``fresh`` (LU factors within
+        :func:`factor_memory_mb`)."""
+        pc = self.ksp.getPC()
+        pc.setReusePreconditioner(not fresh)
         if fresh:
             self.rebuilds += 1
             self._rebuild = False
+            if pc.getType() == "lu":
+                pc.setFactorSetUpSolverType()
+                pc.getFactorMatrix().setMumpsIcntl(23, factor_memory_mb(self.ksp.comm.tompi4py()))
         self.ksp.solve(rhs, solution)
+
+
+def node_memory_available_gb() -> float:
+    """Memory available to new allocations on this rank's node (Linux MemAvailable) [GB];
+    infinite where it cannot be read."""
+    try:
+        meminfo = Path("/proc/meminfo").read_text().splitlines()
+        line = next(line for line in meminfo if line.startswith("MemAvailable:"))
+        return int(line.split()[1]) / 2**20  # kB -> GB
+    except (OSError, StopIteration, ValueError):
+        return math.inf
+
+
+def factor_memory_mb(comm: MPI.Comm) -> int:
+    """MUMPS's bound on the working memory of each rank for LU factors (its ICNTL(23)) [MB]:
+    ``FACTOR_MEMORY_SHARE`` of the memory available on the rank's node, divided among the
+    node's ranks; 0 (no bound) where it cannot be read. Factors that would need more fail
+    (DIVERGED_PCSETUP_FAILED) instead of exhausting the node."""
+    node = comm.Split_type(MPI.COMM_TYPE_SHARED)
+    # the least any rank of the node saw, so that they all set the same bound
+    available = node.allreduce(node_memory_available_gb(), op=MPI.MIN)
+    share = FACTOR_MEMORY_SHARE * available / node.size
+    node.Free()
+    return 0 if math.isinf(share) else int(share * 1024)

@@ -4,7 +4,6 @@ every contact node slips -> report."""
 
 from __future__ import annotations
 
-import math
 import resource
 import sys
 import time
@@ -20,6 +19,7 @@ from roughfriction.geometry.mesh import Block, build_block, estimated_memory_gb,
 from roughfriction.solver.contact import ContactResponse, RigidFlat
 from roughfriction.solver.equilibrium import Equilibrium
 from roughfriction.solver.fields import FieldWriter
+from roughfriction.solver.linear import node_memory_available_gb
 from roughfriction.solver.periodic import PeriodicReduction, dof_node_grid_index
 from roughfriction.solver.progress import LoadStarted, RunStarted
 from roughfriction.solver.results import FemResult
@@ -61,14 +61,7 @@ def available_memory_gb(comm: MPI.Comm) -> float:
     """Memory available to new allocations on the nodes that ``comm``'s ranks run on (Linux
     MemAvailable, each node counted once) [GB]; infinite where it cannot be read."""
     node = comm.Split_type(MPI.COMM_TYPE_SHARED)
-    available = 0.0
-    if node.rank == 0:
-        try:
-            meminfo = Path("/proc/meminfo").read_text().splitlines()
-            line = next(line for line in meminfo if line.startswith("MemAvailable:"))
-            available = int(line.split()[1]) / 2**20  # kB -> GB
-        except (OSError, StopIteration, ValueError):
-            available = math.inf
+    available = node_memory_available_gb() if node.rank == 0 else 0.0
     node.Free()
     return comm.allreduce(available, op=MPI.SUM)
 

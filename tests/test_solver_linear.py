@@ -8,9 +8,13 @@ import pytest
 from mpi4py import MPI  # noqa: E402
 from petsc4py import PETSc  # noqa: E402
 from roughfriction.solver.linear import (  # noqa: E402
+    FACTOR_MEMORY_SHARE,
     GMRES_RESTART,
     INEXACT_ACCEPTED,
+    LinearSolveError,
     LinearSolver,
+    factor_memory_mb,
+    node_memory_available_gb,
 )
 
 pytestmark = pytest.mark.fem
@@ -271,6 +275,38 @@ def test_a_new_preconditioning_matrix_rebuilds_and_lu_factors_the_operator():
     assert solver.ksp.getOperators()[1].handle == matrix.handle
     solver.set_operator(matrix, symmetric=False, preconditioning=symmetric_part)
     assert solver.ksp.getOperators()[1].handle == matrix.handle
+
+
+def test_lu_factors_over_their_memory_bound_fail_and_the_configured_method_returns(
+        monkeypatch):
+    """LU factors that need more than MUMPS's memory bound (here 1 MB) fail the solve
+    (DIVERGED_PCSETUP_FAILED) instead of exhausting the node, and the next solves get the configured
+    preconditioner; within the actual bound (:func:`factor_memory_mb`) the same fallback
+    solves."""
+    matrix = two_fields(64, 100.0)
+    rhs = matrix.createVecLeft()
+    rhs.setArray(np.sin(np.linspace(0.0, 40.0, rhs.getSize())))
+    solution = rhs.duplicate()
+
+    def solver() -> LinearSolver:
+        solver = LinearSolver(MPI.COMM_SELF, "iterative", relative_tolerance=1e-8)
+        solver.set_operator(matrix, symmetric=False)  # GAMG of the operator: LU fallback
+        return solver
+
+    within = solver()
+    within.solve(rhs, solution)
+    assert within.fallbacks == 1 and within.ksp.getPC().getType() == "lu"
+    monkeypatch.setattr("roughfriction.solver.linear.factor_memory_mb", lambda comm: 1)
+    over = solver()
+    with pytest.raises(LinearSolveError, match="DIVERGED_PCSETUP_FAILED"):
+        over.solve(rhs, solution)
+    assert over.ksp.getPC().getType() == "gamg" and over.method == "iterative"
+
+
+def test_the_factors_memory_bound_is_a_share_of_the_nodes_available_memory():
+    bound = factor_memory_mb(MPI.COMM_WORLD)
+    available = node_memory_available_gb() * 1024  # [MB]
+    assert 0 < bound <= FACTOR_MEMORY_SHARE * available * 1.01
 
 
 def test_a_fallback_on_a_symmetric_operator_keeps_the_factors(monkeypatch):
