@@ -215,7 +215,7 @@ class Equilibrium:
         self._tangent_full = None  # K_elastic + K_plastic on the whole mesh, once needed
         self._solid_tangent = None  # its P^T K P
         self.tangent = None  # P^T K P + contact, created at the first assembly
-        self._symmetric_part = None  # the tangent without dt/dp, once it is not symmetric
+        self._uncoupled_tangent = None  # the tangent without dt/dp, once it is not symmetric
         self._symmetric = True  # the tangent, at its last assembly
         self._coupled = False  # some slipping point's cap followed its pressure there
         self.residual = reduction.create_reduced_vector()
@@ -315,7 +315,7 @@ class Equilibrium:
         self._symmetric = self.comm.allreduce(contact.symmetric, op=MPI.LAND)
         self._coupled = self.comm.allreduce(contact.coupled, op=MPI.LOR)
         if not self._symmetric:
-            self._assemble_symmetric_part(contact)
+            self._assemble_uncoupled_tangent(contact)
 
     def _add_node_blocks(self, matrix: PETSc.Mat, nodes: np.ndarray, blocks: np.ndarray,
                          scale: float = 1.0) -> None:
@@ -331,26 +331,26 @@ class Equilibrium:
                 scale * blocks[touching].transpose(0, 2, 1, 3).reshape(len(owned), -1),
                 addv=PETSc.InsertMode.ADD_VALUES)
 
-    def _assemble_symmetric_part(self, contact: ContactResponse) -> None:
+    def _assemble_uncoupled_tangent(self, contact: ContactResponse) -> None:
         """The preconditioning matrix of a non-symmetric tangent: the tangent without the
-        ramp's coupling dt/dp (:attr:`ContactResponse.coupling_blocks`), symmetric positive
-        definite as the symmetric tangent is."""
-        if self._symmetric_part is None:
-            self._symmetric_part = self.tangent.duplicate(copy=True)
+        ramp's coupling dt/dp (:attr:`ContactResponse.coupling_blocks`), i.e. the symmetric
+        positive definite tangent of :attr:`RigidFlat.symmetric_tangent`."""
+        if self._uncoupled_tangent is None:
+            self._uncoupled_tangent = self.tangent.duplicate(copy=True)
             if self._near_nullspace is not None:
-                self._symmetric_part.setNearNullSpace(self._near_nullspace)
+                self._uncoupled_tangent.setNearNullSpace(self._near_nullspace)
         else:
-            self.tangent.copy(self._symmetric_part,
+            self.tangent.copy(self._uncoupled_tangent,
                               structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
-        self._add_node_blocks(self._symmetric_part, *contact.coupling_blocks, scale=-1.0)
-        self._symmetric_part.assemble()
+        self._add_node_blocks(self._uncoupled_tangent, *contact.coupling_blocks, scale=-1.0)
+        self._uncoupled_tangent.assemble()
 
     def _set_operator(self) -> None:
-        """Hand the last assembled tangent to the linear solver, with its symmetric part to
+        """Hand the last assembled tangent to the linear solver, with the uncoupled tangent to
         build the preconditioner from if it is not symmetric."""
         self.linear_solver.set_operator(
             self.tangent, self._symmetric,
-            preconditioning=None if self._symmetric else self._symmetric_part)
+            preconditioning=None if self._symmetric else self._uncoupled_tangent)
 
     def _add_plastic_correction(self, plastic) -> None:
         """Add P^T K_plastic P to the tangent, assembled and reduced on the couplings of the
@@ -722,7 +722,7 @@ class Equilibrium:
         committed = [self._committed[0]] + ([self._previous[0]] if self._previous else [])
         for item in (self.displacement, *committed, self._elastic_tangent, self._elastic_system,
                      self._tangent_full, self._solid_tangent, self._residual_full, self.tangent,
-                     self._symmetric_part, self.residual,
+                     self._uncoupled_tangent, self.residual,
                      self._height_column, self._force_row, self._x1, self._x2,
                      self._path_tangent, self._near_nullspace):
             if item is not None:

@@ -7,7 +7,7 @@ except where Newton uses the exact tangent while a slipping node's cap follows i
 (below the ramp pressure, see :mod:`solver.contact` and :mod:`solver.equilibrium`): the
 coupling dt/dp, strong (tau_c / p_r = 23 at the default ramp) and non-normal, is solved by
 right-preconditioned GMRES (``GMRES_RESTART`` vectors) with the preconditioner built from the
-tangent without it, its symmetric positive definite part:
+tangent without it, the symmetric positive definite tangent Newton starts with:
 
 * direct: the preconditioner is a MUMPS Cholesky factorisation. While it is fresh CG converges
   in one iteration; as the tangent drifts (plastic cells, contact set) the old factors keep

@@ -158,7 +158,7 @@ def test_sliding_goes_on_with_the_exact_tangent_where_the_symmetric_one_stalls(m
     assert result.records[-1].slipping_nodes == result.records[-1].contact_nodes
 
 
-def test_a_non_symmetric_tangent_is_preconditioned_by_its_symmetric_part(monkeypatch):
+def test_a_non_symmetric_tangent_is_preconditioned_by_the_uncoupled_tangent(monkeypatch):
     """The case above: every exact (non-symmetric) tangent reaches the linear solver with a
     preconditioning matrix that is symmetric and differs from it only in the ramp's coupling
     dt/dp, the shear rows' normal columns."""

@@ -224,14 +224,14 @@ def two_field_solve(preconditioning: PETSc.Mat | None) -> LinearSolver:
     return solver
 
 
-def test_gmres_with_gamg_of_the_symmetric_part_solves_a_non_normal_operator():
-    """The sliding tangent's case: GAMG built from the operator's symmetric positive definite
-    part drives GMRES to the tolerance; GAMG built from the strongly coupled operator itself
-    does not, and the solver falls back to LU factors."""
-    symmetric_part = two_fields(64, 0.0)
-    solver = two_field_solve(symmetric_part)
+def test_gmres_with_gamg_of_the_uncoupled_operator_solves_the_coupled_one():
+    """The sliding tangent's case: GAMG built from the operator without its coupling (c = 0,
+    symmetric positive definite) drives GMRES to the tolerance; GAMG built from the strongly
+    coupled operator itself does not, and the solver falls back to LU factors."""
+    uncoupled = two_fields(64, 0.0)
+    solver = two_field_solve(uncoupled)
     assert solver.fallbacks == 0 and solver.ksp.getPC().getType() == "gamg"
-    assert solver.ksp.getOperators()[1].handle == symmetric_part.handle
+    assert solver.ksp.getOperators()[1].handle == uncoupled.handle
     assert two_field_solve(None).fallbacks == 1
 
 
