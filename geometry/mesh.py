@@ -459,12 +459,26 @@ def check_jacobians(block: Block, flat_x: np.ndarray, heights: np.ndarray,
     examples = comm.allgather([tuple(int(v) for v in block.grid_index[cell_nodes[c, 0]])
                                for c in bad[:3]])
     examples = [e for rank_examples in examples for e in rank_examples][:3]
-    deepest_valley = -float(heights.min())
-    needed = math.ceil(deepest_valley / ((1.0 - MIN_JACOBIAN_RATIO) * block.spacing))
+    needed = blend_layers_needed(heights, block.spacing)
     state = "inverted" if worst <= 0 else "distorted"
     raise InputError(
         f"{num_bad} mesh cells {state} by the surface heights (worst Jacobian ratio "
         f"{worst:.3g}, cells at (i, j, layer) {examples}); the deepest valley "
-        f"{deepest_valley:.3g} m needs >= {max(needed, blend_layers + 1)} blend layers "
+        f"{-float(heights.min()):.3g} m needs >= {max(needed, blend_layers + 1)} blend layers "
         f"(now {blend_layers})"
     )
+
+
+def blend_layers_needed(heights: np.ndarray, spacing: float) -> int:
+    """Blend layers that keep every cell's Jacobian ratio above :data:`MIN_JACOBIAN_RATIO`
+    under the deepest valley (a sufficient count): ceil(depth / ((1 - ratio) h)) [-].
+
+    Parameters
+    ----------
+    heights : numpy.ndarray
+        Surface heights [m], (N, N).
+    spacing : float
+        Grid spacing h [m].
+    """
+    deepest_valley = float(np.mean(heights) - np.min(heights))
+    return math.ceil(deepest_valley / ((1.0 - MIN_JACOBIAN_RATIO) * spacing))

@@ -21,6 +21,7 @@ import math
 from dataclasses import dataclass, replace
 
 from roughfriction.case import FemCase
+from roughfriction.geometry.mesh import blend_layers_needed
 from roughfriction.geometry.surface import Surface, bilinear_refine
 
 #: Order assumed with two meshes [-].
@@ -30,13 +31,16 @@ LADDER_RATIO = 2
 
 
 def refined_case(case: FemCase, factor: int) -> FemCase:
-    """The case on a mesh ``factor`` times finer: the same (bilinear) surface, sampled finer."""
+    """The case on a mesh ``factor`` times finer: the same (bilinear) surface, sampled finer,
+    with at least the blend layers its deepest valley needs at the finer spacing
+    (:func:`geometry.mesh.blend_layers_needed`; the layers are thinner)."""
     if factor == 1:
         return case
     surface = case.surface
     fine = Surface(bilinear_refine(surface.heights, factor), surface.spacing / factor,
                    surface.name)
-    return replace(case, surface=fine)
+    blend_layers = max(case.mesh.blend_layers, blend_layers_needed(fine.heights, fine.spacing))
+    return replace(case, surface=fine, mesh=replace(case.mesh, blend_layers=blend_layers))
 
 
 def next_mesh(case: FemCase) -> FemCase:

@@ -39,3 +39,26 @@ def test_refined_case_samples_the_same_bilinear_surface():
     np.testing.assert_allclose(fine.surface.heights[::2, ::2], heights)
     np.testing.assert_allclose(fine.surface.heights[1, 1], heights[:2, :2].mean())
     assert refined_case(case, 1) is case
+
+
+@pytest.mark.fem
+def test_a_refined_case_deepens_the_blend_where_its_thinner_layers_would_distort():
+    """A valley 1.25 h deep meshes with 2 blend layers of thickness h, but not with 2 of h/2:
+    the refined case takes the 3 it needs, and meshes; a case already deep enough keeps its
+    count."""
+    from mpi4py import MPI
+    from roughfriction.errors import InputError
+    from roughfriction.geometry.mesh import build_block
+
+    spacing = 1e-6
+    heights = np.zeros((8, 8))
+    heights[3, 4] = -1.25 * spacing
+    case = FemCase(Surface(heights, spacing, "valley"), Loading(0.1))
+    fine = refined_case(case, 2)
+    assert case.mesh.blend_layers == 2 and fine.mesh.blend_layers == 3
+    build_block(case.surface.heights, spacing, case.mesh, MPI.COMM_SELF)
+    build_block(fine.surface.heights, fine.surface.spacing, fine.mesh, MPI.COMM_SELF)
+    with pytest.raises(InputError, match="needs >= 3 blend layers"):
+        build_block(fine.surface.heights, fine.surface.spacing, case.mesh, MPI.COMM_SELF)
+    shallow = FemCase(Surface(0.2 * heights, spacing, "valley"), Loading(0.1))
+    assert refined_case(shallow, 2).mesh.blend_layers == 2
