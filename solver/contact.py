@@ -48,7 +48,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
-from functools import cached_property
+from functools import cache, cached_property
 
 import numpy as np
 from scipy import sparse
@@ -326,16 +326,22 @@ class RigidFlat:
         height_derivative = np.column_stack([-coupling * pressure_height[:, None],
                                              pressure_height])
 
-        def node_stiffness(coupling_only: bool = False) -> tuple[np.ndarray, np.ndarray]:
-            # tangent per unit area [Pa/m] as 3 x 3 component matrices over the grid nodes:
-            # shear by the point tangent, pressure by dp_q/du_z,b = eps (W^T/w) (W N), and the
-            # ramp's coupling dt/dp (alone if ``coupling_only``)
+        @cache
+        def pressure_columns() -> tuple:
+            # dp_q/du_z,b = eps (W^T/w) (W N), and the shear rows' ramp coupling dt/dp through
+            # it (both parts of the tangent need them: computed once)
             pressure_gradient = (self._point_pressure @ sparse.diags(stiffness)
                                  @ self._gap_gradient)
+            return pressure_gradient, [-(self._to_nodes @ sparse.diags(coupling[:, i])
+                                         @ pressure_gradient) for i in range(2)]
+
+        def node_stiffness(coupling_only: bool = False) -> tuple[np.ndarray, np.ndarray]:
+            # tangent per unit area [Pa/m] as 3 x 3 component matrices over the grid nodes:
+            # shear by the point tangent, pressure and the ramp's coupling by pressure_columns
+            # (the coupling alone if ``coupling_only``)
+            pressure_gradient, shear_coupling = pressure_columns()
             blocks = np.full((3, 3), None, dtype=object)
-            for i in range(2):
-                blocks[i, 2] = -(self._to_nodes @ sparse.diags(coupling[:, i])
-                                 @ pressure_gradient)
+            blocks[0, 2], blocks[1, 2] = shear_coupling
             if coupling_only:
                 return self._node_tangent(blocks)
             tangential = np.eye(2) - np.where(slipping, 1.0, 0.0)[:, None, None] * np.einsum(
