@@ -4,9 +4,9 @@ Every run goes through the run cache (:func:`studies.cache.cached_results`), one
 group of runs that differ only in the load (they share one normal loading path), the groups of
 the smallest surface grids first. Before each group the peak resident memory of every rank is
 reset, so that the ``peak_memory_gb`` a run records is that of its own group, not of the
-largest run computed earlier in the same process. A group that cannot start (an inverted mesh:
-an :class:`~geometry.errors.InputError`, raised on every rank) is recorded with its message
-instead of ending the batch; any other exception ends it (finished runs stay in the cache).
+largest run computed earlier in the same process. A run that cannot start (an inverted mesh:
+:class:`studies.cache.RunsNotStarted`) is recorded with its message instead of ending the
+batch; any other exception ends it (finished runs stay in the cache).
 
 Imports without dolfinx; :func:`compute_batch` needs mpi4py and, for missing runs, the FEM.
 """
@@ -21,9 +21,9 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from roughfriction.case import FemCase
-from roughfriction.errors import InputError
 from roughfriction.files import atomic_write
 from roughfriction.studies.cache import (
+    RunsNotStarted,
     cached_results,
     finished_entry,
     group_key,
@@ -105,8 +105,9 @@ def compute_batch(cases: Sequence[FemCase], comm, directory=None,
             paths = cached_results([cases[index] for index in members], comm, progress,
                                    directory)
             found = [BatchResult(path) for path in paths]
-        except InputError as error:
-            found = [BatchResult(None, str(error))] * len(members)
+        except RunsNotStarted as error:
+            found = [BatchResult(None, error.reasons[path]) if path in error.reasons
+                     else BatchResult(path) for path in error.paths]
         for index, result in zip(members, found, strict=True):
             results[index] = result
     return results

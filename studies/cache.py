@@ -14,6 +14,8 @@ result. Unconverged runs are entries too (a rerun would repeat them); delete the
 A run that fails on a normal path shared with smaller loads is run once more on its own path
 (:func:`_compute_alone`); if that converges, its entry is the standalone run, with a ``note``
 attribute that says so (``roughfriction post``, the runs table and the stress matrix show it).
+A group of runs that cannot start (an :class:`~roughfriction.errors.InputError` on every rank,
+e.g. an inverted mesh) does not stop the others: :class:`RunsNotStarted` names it at the end.
 
 A normal-only case is also answered by the finished sliding run of the same case: its preload is
 the same computation (read it with :func:`studies.post.preload_state`).
@@ -37,6 +39,7 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 
 from roughfriction.case import FemCase, Loading
+from roughfriction.errors import InputError
 from roughfriction.solver.results import StepRecord
 
 #: Environment variable naming the cache directory (default ``results/runs``).
@@ -246,6 +249,13 @@ class RunReporter:
         self.write(f"{self.prefix}: step {self.steps} {record.phase} Ft/Fn={ratio:.4f} "
                    f"newton {record.newton_iterations} ({self.iterations} in run)")
 
+    def not_started(self, cases: Sequence[FemCase], why: str) -> None:
+        """The runs of a group could not start (``why``: the one-line error); they count as
+        done."""
+        for case in cases:
+            self.done += 1
+            self.write(f"[{self.done}/{self.total}] {run_label(case)}: could not start: {why}")
+
     def finished(self, summary: dict) -> None:
         """A run ended with this summary (``FemResult.summary()``)."""
         self.done += 1
@@ -277,11 +287,17 @@ def runs_table(rows: Sequence[dict]) -> list[str]:
     return lines
 
 
-def _table_rows(cases, paths, computed) -> list[dict]:
+def _table_rows(cases, paths, computed, not_started) -> list[dict]:
     from roughfriction.studies.post import read_run
 
     rows = []
     for case, path in zip(cases, paths, strict=True):
+        if path in not_started:
+            rows.append({"surface": case.surface.name, "n": case.surface.n,
+                         "load_star": case.loading.load_star,
+                         "normal_only": case.loading.normal_only, "wall_s": None,
+                         "converged": False, "mu_s": None, "source": "could not start"})
+            continue
         entry = read_run(path)
         source = "computed" if path in computed else "cache"
         if entry.note:
@@ -340,16 +356,45 @@ def cached_results(cases: Sequence[FemCase], comm=None, progress=None,
     groups = plan_runs(cases, found, directory, physics)
     write = (progress or stderr_line) if comm.rank == 0 else (lambda line: None)
     reporter = RunReporter(sum(len(group.cases) for group in groups), write)
-    computed = set()
+    computed, not_started = set(), {}
     for group in groups:
-        _compute_group(group, comm, reporter)
+        try:
+            _compute_group(group, comm, reporter)
+        except InputError as error:  # raised on every rank: the other groups still run
+            unwritten = comm.bcast([index for index, path in enumerate(group.paths)
+                                    if not path.exists()] if comm.rank == 0 else None,
+                                   root=0)
+            reporter.not_started([group.cases[index] for index in unwritten], str(error))
+            not_started.update({group.paths[index]: str(error) for index in unwritten})
         computed.update(group.paths)
     paths = [path or entry_path(directory, case, physics)
              for case, path in zip(cases, found, strict=True)]
     if comm.rank == 0 and paths:
-        for line in runs_table(_table_rows(cases, paths, computed)):
+        for line in runs_table(_table_rows(cases, paths, computed, not_started)):
             write(line)
+    if not_started:
+        raise RunsNotStarted(cases, paths, not_started)
     return paths
+
+
+class RunsNotStarted(InputError):
+    """Runs of :func:`cached_results` that could not start (an inverted mesh, say), raised
+    after every other run has finished.
+
+    Attributes
+    ----------
+    paths : list of pathlib.Path
+        The entry of every case, in order (the missing ones are not written).
+    reasons : dict
+        Entry path of a run that did not start -> its one-line error.
+    """
+
+    def __init__(self, cases: Sequence[FemCase], paths: list[Path], reasons: dict[Path, str]):
+        self.paths, self.reasons = paths, reasons
+        failed = {run_label(case): reasons[path] for case, path in zip(cases, paths, strict=True)
+                  if path in reasons}
+        super().__init__(f"{len(failed)} run(s) could not start, the others finished: "
+                         + "; ".join(f"{label}: {why}" for label, why in failed.items()))
 
 
 def _compute_group(group: RunGroup, comm, reporter: RunReporter) -> None:

@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from roughfriction.case import FemCase, Loading, SolverOptions
+from roughfriction.errors import InputError
 from roughfriction.geometry.surface import Surface
 from roughfriction.solver.progress import StepCut
 from roughfriction.solver.results import FemResult, StepRecord
@@ -135,9 +136,12 @@ class FakeFem:
         self.directory, self.fail_at = directory, fail_at
         self.calls, self.entries_at_start = [], []
         self.stalls, self.stalls_alone = set(), False  # (name, load): the run does not converge
+        self.refused = set()  # surface names whose mesh is refused before any run starts
 
     def run_loads(self, case, loads, comm, progress=None, xdmf_directory=None, finished=None):
         self.calls.append((case.surface.name, case.loading.normal_only, list(loads)))
+        if case.surface.name in self.refused:
+            raise InputError(f"{case.surface.name}: 3 inverted cells")
         runs = []
         for index, load in enumerate(loads):
             self.entries_at_start.append(len(list(self.directory.glob("*.h5"))))
@@ -235,6 +239,31 @@ def test_a_failure_keeps_the_runs_finished_before_it(fake_fem, tmp_path):
     fake_fem.fail_at = None
     fill(cases, tmp_path)
     assert fake_fem.calls[-1] == ("G-test", False, [0.3, 0.5])  # only what was missing
+
+
+def test_a_group_that_cannot_start_does_not_stop_the_others(fake_fem, tmp_path):
+    from roughfriction.studies.batch import compute_batch
+
+    cases = [rough_case(0.155, name="bad"), rough_case(0.155), rough_case(0.3, name="bad"),
+             rough_case(0.3)]
+    fake_fem.refused = {"bad"}
+    lines = []
+    with pytest.raises(cache.RunsNotStarted, match=r"^2 run\(s\) could not start.*bad N=8 "
+                       r"F\*=0.155: bad: 3 inverted cells; bad N=8 F\*=0.3: bad") as raised:
+        fill(cases, tmp_path, lines)
+    assert fake_fem.calls == [("bad", False, [0.155, 0.3]), ("G-test", False, [0.155, 0.3])]
+    assert raised.value.paths == [entry_path(tmp_path, case, PHYSICS) for case in cases]
+    assert set(raised.value.reasons) == {raised.value.paths[0], raised.value.paths[2]}
+    assert [path.exists() for path in raised.value.paths] == [False, True, False, True]
+    assert sum("could not start: bad: 3 inverted cells" in line for line in lines) == 2
+    assert "4/4 runs" in lines[-6]  # the refused runs count in the progress bar
+    assert [line.split()[-1] for line in lines[-4:]] == ["start", "computed", "start",
+                                                          "computed"]
+    # a benchmark batch records the refusal per case and goes on
+    results = compute_batch(cases, comm_self(), tmp_path, lambda line: None)
+    assert [result.error for result in results] == ["bad: 3 inverted cells", "",
+                                                    "bad: 3 inverted cells", ""]
+    assert [result.path for result in results[1::2]] == raised.value.paths[1::2]
 
 
 def test_a_run_that_fails_on_the_shared_path_is_run_again_alone(fake_fem, tmp_path):
