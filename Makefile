@@ -69,8 +69,9 @@ THEORY_FIGURES := fig12 fig13 fig17 fig18 fig19
 # FEM figures (fig14: theory with FEM points), on N x N surface grids under mpirun. Runs are kept
 # in results/runs/ (the run cache): a figure never recomputes a finished run, and a killed
 # `make figures` resumes where it stopped. A run that cannot start (an inverted mesh) does not
-# stop the others: the batch names it at the end and fails (`make -k figures` draws the rest). Sliding figures come first so that the normal-only
-# figures (fig20, fig14, fig8-fig10) mostly read the preloads of their sliding runs.
+# stop the others: the batch names it at the end and fails (`make -k figures` draws the rest).
+# Sliding figures come first so that the normal-only figures (fig20, fig14, fig8-fig10) mostly
+# read the preloads of their sliding runs.
 N ?= 32
 FEM_FIGURES := fig22 fig23 fig24 fig25 fig26 fig27 fig28 fig21 fig29 fig15 fig20 fig14 fig8 \
 	fig9 fig10
