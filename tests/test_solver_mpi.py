@@ -89,3 +89,15 @@ def test_a_converged_two_rank_run_converges_again():
         assert result.converged, result.message
         mu.append(result.mu_s)
     np.testing.assert_allclose(mu, mu[0], rtol=1e-6)
+
+
+def test_the_factors_memory_bound_is_shared_by_the_ranks_of_a_node(monkeypatch):
+    """MUMPS's bound per rank: the share of the least memory any rank of the node sees, divided
+    among the node's ranks (both ranks of ``mpirun -n 2`` on one node), the same on each."""
+    from roughfriction.solver import linear
+
+    comm = MPI.COMM_WORLD
+    monkeypatch.setattr(linear, "node_memory_available_gb", lambda: 10.0 + comm.rank)
+    bound = linear.factor_memory_mb(comm)
+    assert bound == int(linear.FACTOR_MEMORY_SHARE * 10.0 / 2 * 1024)
+    assert comm.allgather(bound) == [bound, bound]
