@@ -292,11 +292,11 @@ def _table_rows(cases, paths, computed, not_started) -> list[dict]:
 
     rows = []
     for case, path in zip(cases, paths, strict=True):
+        row = {"surface": case.surface.name, "n": case.surface.n,
+               "load_star": case.loading.load_star, "normal_only": case.loading.normal_only}
         if path in not_started:
-            rows.append({"surface": case.surface.name, "n": case.surface.n,
-                         "load_star": case.loading.load_star,
-                         "normal_only": case.loading.normal_only, "wall_s": None,
-                         "converged": False, "mu_s": None, "source": "could not start"})
+            rows.append(row | {"wall_s": None, "converged": False, "mu_s": None,
+                               "source": "could not start"})
             continue
         entry = read_run(path)
         source = "computed" if path in computed else "cache"
@@ -304,11 +304,8 @@ def _table_rows(cases, paths, computed, not_started) -> list[dict]:
             source += " (alone: shared path failed)"
         if entry.inputs["loading"]["normal_only"] != case.loading.normal_only:
             source += " (its sliding run)"
-        rows.append({"surface": case.surface.name, "n": case.surface.n,
-                     "load_star": case.loading.load_star,
-                     "normal_only": case.loading.normal_only,
-                     "wall_s": entry.summary["wall_s"], "converged": entry.converged,
-                     "mu_s": entry.summary["mu_s"], "source": source})
+        rows.append(row | {"wall_s": entry.summary["wall_s"], "converged": entry.converged,
+                           "mu_s": entry.summary["mu_s"], "source": source})
     return rows
 
 
