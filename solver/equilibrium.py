@@ -15,7 +15,8 @@ max |du| <= tol_u h. A line search along each Newton step (du, dh) seeks the roo
 s = du.R - dh r of the step's energy, which damps contact and yield overshoot; a solve whose
 residual stops halving is abandoned (the step is then cut). A load step is converged
 when, after Uzawa updates of the contact multipliers (Newton stops at looser tolerances between
-updates), no contact point penetrates deeper than tol_g h.
+updates), no contact point penetrates deeper than tol_g h. A step that only marks the path takes
+one update at its end instead, which the next step's solve absorbs (``CARRIED_PENETRATION``).
 """
 
 from __future__ import annotations
@@ -69,6 +70,11 @@ MAX_ROUNDS = 5
 #: tolerances (multipliers need an equilibrium only as good as their own error) [-].
 UZAWA_RESIDUAL_TOLERANCE = 1e-4
 UZAWA_INCREMENT_TOLERANCE = 1e-2
+#: A step that marks the path leaves its multiplier update to the next step while its deepest
+#: penetration is within this times the penetration tolerance; deeper (a penalty soft against
+#: the solid, e.g. a locking mesh), the update would shift the load the flat carries, and the
+#: step is re-solved [-].
+CARRIED_PENETRATION = 10.0
 #: Krylov tolerance = FORCING_FACTOR x (||R|| + |r|) / F_n, clipped to [FORCING_MIN, FORCING_MAX].
 FORCING_FACTOR = 0.1
 FORCING_MIN = 1e-10
@@ -436,7 +442,10 @@ class Equilibrium:
         marks_path : bool
             The step only marks the loading path to the state that is reported (a held preload
             step, a sliding step before inception): it ends at the looser Newton tolerances of
-            the solves between Uzawa updates.
+            the solves between Uzawa updates, after one solve: if a node penetrates deeper than
+            the tolerance (but within ``CARRIED_PENETRATION`` times it), the multipliers are
+            updated and the update is carried into the next step, whose first solve absorbs
+            it, instead of a re-solve here.
         exact_tangent : bool
             Newton starts with the exact tangent instead of the symmetric one (:meth:`_newton`).
         """
@@ -449,6 +458,7 @@ class Equilibrium:
         if marks_path:
             tight = tolerances
         iterations = krylov = updates = solves = 0
+        carried = False  # the last update is left to the next step
         while True:
             # the tangential predictor belongs to the first solve of a step only
             report = self._newton(normal_force, flat_slide, friction,
@@ -469,8 +479,11 @@ class Equilibrium:
                 break
             self.flat.augment(report.contact)
             updates += 1
+            carried = marks_path and penetration <= CARRIED_PENETRATION * tolerance
+            if carried:
+                break  # the next step's solve absorbs the update (commit keeps it)
         reason = report.reason
-        if report.converged and penetration > tolerance:
+        if report.converged and penetration > tolerance and not carried:
             reason = (f"penetration {penetration / self.spacing:.2e} h > tolerance "
                       f"{options.penetration_tolerance:.0e} h after "
                       f"{options.max_augmentations} multiplier updates")

@@ -77,10 +77,17 @@ def test_the_path_slope_is_the_derivative_of_the_held_force(monkeypatch):
         aim_height(self, aim)
 
     monkeypatch.setattr(LoadPath, "_aim_height", checked)
-    # held steps end at the loose tolerances between Uzawa updates: tighten them, so that the
-    # finite difference over 0.1 % of the load is not the solver's residual
-    monkeypatch.setattr(equilibrium_module, "UZAWA_RESIDUAL_TOLERANCE", 1e-9)
-    monkeypatch.setattr(equilibrium_module, "UZAWA_INCREMENT_TOLERANCE", 1e-6)
+    # held steps end at the loose tolerances between Uzawa updates and carry their last update
+    # into the next step: solve them to the solver's tolerances and multipliers, so that the
+    # finite difference over 0.1 % of the load is neither the residual nor that update
+    solve = Equilibrium.solve
+
+    def converged(self, normal_force, flat_slide, friction, hold_height=False, predictor=True,
+                  marks_path=False, exact_tangent=False):
+        return solve(self, normal_force, flat_slide, friction, hold_height, predictor, False,
+                     exact_tangent)
+
+    monkeypatch.setattr(Equilibrium, "solve", converged)
     heights = np.random.default_rng(3).normal(0.0, 1e-7, (16, 16))
     case = FemCase(Surface(heights, 1e-6, "test"), Loading(0.5, normal_only=True),
                    solver=SolverOptions(elastic=True, normal_increments=8))
@@ -132,6 +139,45 @@ def test_sliding_steps_before_inception_only_mark_the_path(monkeypatch):
     assert (sum(record.newton_iterations for record in sliding)
             < sum(record.newton_iterations for record in reference.records
                   if record.phase == "tangential"))
+
+
+def test_a_step_that_marks_the_path_carries_its_multiplier_update(monkeypatch):
+    """A step that marks the path (held preload, sliding before inception) is one Newton solve:
+    where a node penetrates deeper than the tolerance (within ``CARRIED_PENETRATION`` times
+    it: all of them here), the multipliers are updated to its pressures, and the next step
+    starts from them instead of a re-solve of this one. Steps solved to the end (the last
+    preload step, inception) still meet the penetration tolerance. G5 re-gridded to 16 x 16
+    at F* = 0.5."""
+    solve, newton = Equilibrium.solve, Equilibrium._newton
+    calls, path_steps, final_steps = [0], [], []
+
+    def counted(self, *args, **kwargs):
+        calls[0] += 1
+        return newton(self, *args, **kwargs)
+
+    def spied(self, normal_force, flat_slide, friction, hold_height=False, predictor=True,
+              marks_path=False, exact_tangent=False):
+        calls[0] = 0
+        report = solve(self, normal_force, flat_slide, friction, hold_height, predictor,
+                       marks_path, exact_tangent)
+        penetration = self.flat.penetration(report.contact) / self.spacing
+        if marks_path:
+            updated = np.array_equal(self.flat.multiplier, report.contact.node_pressure)
+            path_steps.append((calls[0], penetration, updated))
+        elif report.converged:
+            final_steps.append(penetration)
+        return report
+
+    monkeypatch.setattr(Equilibrium, "_newton", counted)
+    monkeypatch.setattr(Equilibrium, "solve", spied)
+    case = FemCase(surface_on_fem_grid(builtin_surface("G5"), 16), Loading(0.5))
+    result = run(case, MPI.COMM_WORLD, progress=lambda record: None).result
+    assert result.converged, result.message
+    tolerance = case.solver.penetration_tolerance
+    assert all(solves == 1 for solves, _, _ in path_steps)
+    deep = [updated for _, penetration, updated in path_steps if penetration > tolerance]
+    assert deep and all(deep), "no path step penetrated, or its update was not kept"
+    assert final_steps and max(final_steps) <= tolerance
 
 
 def test_sliding_goes_on_with_the_exact_tangent_where_the_symmetric_one_stalls(monkeypatch):
