@@ -502,7 +502,9 @@ class Equilibrium:
         CG, and no stick/slip cycling driven by the cap's ramp) and go on with the exact one if
         they stagnate or reach the iteration limit while slipping points sit on the ramp (the
         symmetric tangent then converges only linearly); with ``exact_tangent`` they start with
-        the exact one."""
+        the exact one. Where the exact tangent says that lowering the flat would unload it
+        (dr/dh >= 0: singular, through the ramp's coupling, whose friction coefficient
+        tau_c / p_r is far above 1), that Newton step is taken with the symmetric one."""
         tolerance_force = residual_tolerance * normal_force
         tolerance_increment = increment_tolerance * self.spacing
         # the forcing term's safeguard for the iterative method only: CG on reused Cholesky
@@ -514,6 +516,7 @@ class Equilibrium:
         state = self._evaluate(normal_force, flat_slide, friction, predictor)
         increment, krylov = 0.0, 0
         cut = False  # the last line search cut the Newton step
+        singular = False  # the exact tangent was singular at this iterate
         settles_on_kink = residual_tolerance < UZAWA_RESIDUAL_TOLERANCE  # (RESIDUAL_FLOOR)
         history = []
         rounds, changes, limit = 0, np.inf, self.options.max_iterations
@@ -567,7 +570,8 @@ class Equilibrium:
                 if not stagnating:  # above the floor under the law: the frozen round goes on
                     self._active = frozen
                     state = self._evaluate(normal_force, flat_slide, friction, predictor=False)
-            if (stagnating or iteration == limit) and self.flat.symmetric_tangent and self._coupled:
+            if ((stagnating or iteration == limit) and self.flat.symmetric_tangent
+                    and self._coupled and not singular):
                 # slipping points on the cap's ramp: go on with the exact tangent
                 self.flat.symmetric_tangent = False
                 state = self._evaluate(normal_force, flat_slide, friction, predictor=False)
@@ -598,11 +602,20 @@ class Equilibrium:
                 reason = str(error)
                 break
             krylov += its
+            if not (self._hold_height or self._symmetric) and self._height_slope() >= 0.0:
+                # lowering the flat would unload it: the exact tangent is singular here (the
+                # ramp's coupling); this Newton step is taken with the symmetric one instead
+                self.flat.symmetric_tangent, singular = True, True
+                state = self._evaluate(normal_force, flat_slide, friction, predictor=False)
+                continue
             step, state = self._line_search(height_increment, state, normal_force,
                                             flat_slide, friction, full_step=predictor)
             increment = step * self._x1.norm(PETSc.NormType.NORM_INFINITY)
             cut = step < 1.0
             predictor = False
+            if singular:  # back to the exact tangent
+                self.flat.symmetric_tangent, singular = False, False
+                state = self._evaluate(normal_force, flat_slide, friction, predictor=False)
             if self._active is not None:  # nodes that entered contact stay in this round
                 self._active = state.contact.node_active
         self._active = None

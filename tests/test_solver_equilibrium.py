@@ -204,6 +204,36 @@ def test_sliding_goes_on_with_the_exact_tangent_where_the_symmetric_one_stalls(m
     assert result.records[-1].slipping_nodes == result.records[-1].contact_nodes
 
 
+def test_a_singular_exact_tangent_gives_way_to_the_symmetric_one_for_a_step(monkeypatch):
+    """The case above, with the exact tangent's dr/dh made positive once (lowering the flat
+    would unload it: singular, as the ramp's coupling can make it; seen at 128^2): that Newton
+    step is not taken, the next is taken with the symmetric tangent, the ones after with the
+    exact tangent again, and the run converges."""
+    from roughfriction.studies.refinement import refined_case
+
+    case = refined_case(FemCase(surface_on_fem_grid(builtin_surface("G5"), 4), Loading(0.155)), 2)
+    height_slope, line_search = Equilibrium._height_slope, Equilibrium._line_search
+    flipped, symmetric_after = [], []
+
+    def singular_once(self):
+        slope = height_slope(self)
+        if not self._symmetric and not flipped:
+            flipped.append(True)  # the first exact tangent of the run
+        return abs(slope) if flipped and not symmetric_after and not self._symmetric else slope
+
+    def spy(self, *args, **kwargs):
+        if flipped:
+            symmetric_after.append(self.flat.symmetric_tangent)
+        return line_search(self, *args, **kwargs)
+
+    monkeypatch.setattr(Equilibrium, "_height_slope", singular_once)
+    monkeypatch.setattr(Equilibrium, "_line_search", spy)
+    result = run(case, MPI.COMM_SELF, progress=lambda record: None).result
+    assert result.converged, result.message
+    assert flipped and symmetric_after[0], "the step along the singular tangent was taken"
+    assert not all(symmetric_after), "the exact tangent did not come back"
+
+
 def test_a_non_symmetric_tangent_is_preconditioned_by_the_uncoupled_tangent(monkeypatch):
     """The case above: every exact (non-symmetric) tangent reaches the linear solver with a
     preconditioning matrix that is symmetric and differs from it only in the ramp's coupling
