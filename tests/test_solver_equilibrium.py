@@ -19,6 +19,19 @@ from roughfriction.solver.stepping import LoadPath  # noqa: E402
 pytestmark = pytest.mark.fem
 
 
+def only_mark_the_path(monkeypatch, rule):
+    """Patch Equilibrium.solve so that a step only marks the path where
+    ``rule(marks_path, friction)`` says so (the others are solved to the end)."""
+    solve = Equilibrium.solve
+
+    def patched(self, normal_force, flat_slide, friction, hold_height=False, predictor=True,
+                marks_path=False, exact_tangent=False):
+        return solve(self, normal_force, flat_slide, friction, hold_height, predictor,
+                     rule(marks_path, friction), exact_tangent)
+
+    monkeypatch.setattr(Equilibrium, "solve", patched)
+
+
 def test_a_converged_step_is_one_newton_increment_from_the_solution(monkeypatch):
     """Every load step a Newton solve accepts (preload and sliding of a random 16 x 16
     surface, a residual tolerance loose enough for the increment test to decide, Newton stopping
@@ -80,14 +93,7 @@ def test_the_path_slope_is_the_derivative_of_the_held_force(monkeypatch):
     # held steps end at the loose tolerances between Uzawa updates and carry their last update
     # into the next step: solve them to the solver's tolerances and multipliers, so that the
     # finite difference over 0.1 % of the load is neither the residual nor that update
-    solve = Equilibrium.solve
-
-    def converged(self, normal_force, flat_slide, friction, hold_height=False, predictor=True,
-                  marks_path=False, exact_tangent=False):
-        return solve(self, normal_force, flat_slide, friction, hold_height, predictor, False,
-                     exact_tangent)
-
-    monkeypatch.setattr(Equilibrium, "solve", converged)
+    only_mark_the_path(monkeypatch, lambda marks_path, friction: False)
     heights = np.random.default_rng(3).normal(0.0, 1e-7, (16, 16))
     case = FemCase(Surface(heights, 1e-6, "test"), Loading(0.5, normal_only=True),
                    solver=SolverOptions(elastic=True, normal_increments=8))
@@ -123,14 +129,7 @@ def test_sliding_steps_before_inception_only_mark_the_path(monkeypatch):
     the solver's tolerances (measured on 64^2: 1e-5), in fewer Newton iterations."""
     case = FemCase(surface_on_fem_grid(builtin_surface("G5"), 16), Loading(0.5))
     loose = run(case, MPI.COMM_WORLD, progress=lambda record: None).result
-    solve = Equilibrium.solve
-
-    def tight(self, normal_force, flat_slide, friction, hold_height=False, predictor=True,
-              marks_path=False, exact_tangent=False):
-        return solve(self, normal_force, flat_slide, friction, hold_height, predictor,
-                     marks_path and not friction, exact_tangent)
-
-    monkeypatch.setattr(Equilibrium, "solve", tight)
+    only_mark_the_path(monkeypatch, lambda marks_path, friction: marks_path and not friction)
     reference = run(case, MPI.COMM_WORLD, progress=lambda record: None).result
     assert loose.converged and reference.converged, (loose.message, reference.message)
     sliding = [record for record in loose.records if record.phase == "tangential"]
