@@ -440,12 +440,12 @@ class Equilibrium:
             A tangential step's first solve starts with the tangential predictor (False: the
             caller has placed a first iterate, :meth:`extrapolate`).
         marks_path : bool
-            The step only marks the loading path to the state that is reported (a held preload
-            step, a sliding step before inception): it ends at the looser Newton tolerances of
-            the solves between Uzawa updates, after one solve: if a node penetrates deeper than
-            the tolerance (but within ``CARRIED_PENETRATION`` times it), the multipliers are
-            updated and the update is carried into the next step, whose first solve absorbs
-            it, instead of a re-solve here.
+            The step only marks the loading path to the state that is reported (a preload step
+            that sliding follows, a sliding step before inception): it ends at the looser
+            Newton tolerances of the solves between Uzawa updates, after one solve: if a node
+            penetrates deeper than the tolerance (but within ``CARRIED_PENETRATION`` times it),
+            the multipliers are updated and the update is carried into the next step, whose
+            first solve absorbs it, instead of a re-solve here.
         exact_tangent : bool
             Newton starts with the exact tangent instead of the symmetric one (:meth:`_newton`).
         """

@@ -128,7 +128,7 @@ class LoadPath:
         material = self.case.material
         return material.tau_c * self.depth / material.shear_modulus
 
-    def preload(self, target: float) -> Outcome:
+    def preload(self, target: float, then_slide: bool = False) -> Outcome:
         """Frictionless normal loading from the current preload (0 at first) to ``target`` [N]
         in adaptive increments of the load.
 
@@ -140,7 +140,8 @@ class LoadPath:
         ``target``, or adds more than the increment cap (at first contact the path slope is
         far too soft), is cut and re-aimed from it. Held steps end at the looser tolerances of
         a step that marks the path (:meth:`Equilibrium.solve`). The last step, to ``target``,
-        is force-controlled.
+        is force-controlled; with ``then_slide`` (sliding follows from it) it marks the path
+        too, else (a normal-only run ends there) it is solved to the solver's tolerances.
         """
         options = self.case.solver
         largest = 1.0 if options.elastic else options.max_preload_increment  # elastic: path-free
@@ -160,7 +161,8 @@ class LoadPath:
                 self._aim_height(aim)
             elif last is not None:
                 equilibrium.extrapolate((aim - self.normal_force) / last)
-            report = self._attempt(aim, 0.0, friction=False, hold_height=hold, marks_path=hold)
+            report = self._attempt(aim, 0.0, friction=False, hold_height=hold,
+                                   marks_path=hold or then_slide)
             if report is None:
                 return Outcome(False, f"step limit reached during preload at F_n = {start:.4g}"
                                       " x target")

@@ -6,6 +6,7 @@ from mpi4py import MPI  # noqa: E402
 from roughfriction.case import FemCase, Loading, SolverOptions  # noqa: E402
 from roughfriction.geometry.generate import builtin_surface  # noqa: E402
 from roughfriction.geometry.surface import surface_on_fem_grid  # noqa: E402
+from roughfriction.solver.equilibrium import Equilibrium  # noqa: E402
 from roughfriction.solver.progress import StepCut  # noqa: E402
 from roughfriction.solver.run import run  # noqa: E402
 from roughfriction.studies.paper import fem_surface  # noqa: E402
@@ -45,3 +46,51 @@ def test_the_load_increments_stay_within_the_solver_options():
     assert max(b - a for a, b in zip(normal, normal[1:], strict=False)) <= 0.2 * normal[-1]
     assert max(b - a for a, b in zip(slides, slides[1:], strict=False)) <= 0.05 * scale * (
         1 + 1e-12)
+
+
+def test_the_preload_is_solved_to_the_end_only_where_the_run_ends_there(monkeypatch):
+    """The preload's last step marks the path where sliding follows from it, and is solved to
+    the solver's tolerances where a normal-only run ends there. G5 re-gridded to 16 x 16 at
+    F* = 0.5: the sliding run gives the same mu_s as with that step solved to the end, in
+    fewer preload Newton iterations; the normal-only run ends within the penetration
+    tolerance."""
+    solve = Equilibrium.solve
+    calls = []
+
+    def spied(self, normal_force, flat_slide, friction, hold_height=False, predictor=True,
+              marks_path=False, exact_tangent=False):
+        report = solve(self, normal_force, flat_slide, friction, hold_height, predictor,
+                       marks_path, exact_tangent)
+        if not friction:
+            calls.append((marks_path, self.flat.penetration(report.contact) / self.spacing))
+        return report
+
+    monkeypatch.setattr(Equilibrium, "solve", spied)
+    surface = surface_on_fem_grid(builtin_surface("G5"), 16)
+    loose = run(FemCase(surface, Loading(0.5)), MPI.COMM_SELF, progress=lambda item: None).result
+    assert loose.converged, loose.message
+    assert calls and all(marks_path for marks_path, _ in calls)
+
+    calls.clear()
+    normal = FemCase(surface, Loading(0.5, normal_only=True))
+    result = run(normal, MPI.COMM_SELF, progress=lambda item: None).result
+    assert result.converged, result.message
+    marks_path, penetration = calls[-1]
+    assert not marks_path and penetration <= normal.solver.penetration_tolerance
+
+    def solved_to_the_end(self, normal_force, flat_slide, friction, hold_height=False,
+                          predictor=True, marks_path=False, exact_tangent=False):
+        marks_path = marks_path and (friction or hold_height)
+        return spied(self, normal_force, flat_slide, friction, hold_height, predictor,
+                     marks_path, exact_tangent)
+
+    monkeypatch.setattr(Equilibrium, "solve", solved_to_the_end)
+    tight = run(FemCase(surface, Loading(0.5)), MPI.COMM_SELF, progress=lambda item: None).result
+    assert tight.converged, tight.message
+
+    def preload_iterations(result):
+        return sum(record.newton_iterations + record.cut_iterations
+                   for record in result.records if record.phase == "normal")
+
+    assert loose.mu_s == pytest.approx(tight.mu_s, rel=1e-4)
+    assert preload_iterations(loose) < preload_iterations(tight)
