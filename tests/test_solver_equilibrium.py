@@ -19,19 +19,6 @@ from roughfriction.solver.stepping import LoadPath  # noqa: E402
 pytestmark = pytest.mark.fem
 
 
-def only_mark_the_path(monkeypatch, rule):
-    """Patch Equilibrium.solve so that a step only marks the path where
-    ``rule(marks_path, friction)`` says so (the others are solved to the end)."""
-    solve = Equilibrium.solve
-
-    def patched(self, normal_force, flat_slide, friction, hold_height=False, predictor=True,
-                marks_path=False, exact_tangent=False):
-        return solve(self, normal_force, flat_slide, friction, hold_height, predictor,
-                     rule(marks_path, friction), exact_tangent)
-
-    monkeypatch.setattr(Equilibrium, "solve", patched)
-
-
 def test_a_converged_step_is_one_newton_increment_from_the_solution(monkeypatch):
     """Every load step a Newton solve accepts (preload and sliding of a random 16 x 16
     surface, a residual tolerance loose enough for the increment test to decide, Newton stopping
@@ -74,7 +61,7 @@ def test_a_converged_step_is_one_newton_increment_from_the_solution(monkeypatch)
     assert max(moves) <= 1.0, f"a converged step moved {max(moves):.3g} x the tolerance"
 
 
-def test_the_path_slope_is_the_derivative_of_the_held_force(monkeypatch):
+def test_the_path_slope_is_the_derivative_of_the_held_force(monkeypatch, only_mark_the_path):
     """Equilibrium.path_slope, dF_n/dh along the equilibrium path of a held flat, matches the
     finite difference of the force carried at two held heights 0.1 % of the load apart, at
     every held preload step of an elastic random 16 x 16 surface (the tangent uses the
@@ -99,7 +86,7 @@ def test_the_path_slope_is_the_derivative_of_the_held_force(monkeypatch):
     # held steps end at the loose tolerances between Uzawa updates and carry their last update
     # into the next step: solve them to the solver's tolerances and multipliers, so that the
     # finite difference over 0.1 % of the load is neither the residual nor that update
-    only_mark_the_path(monkeypatch, lambda marks_path, friction: False)
+    only_mark_the_path(lambda marks_path, friction, hold_height: False)
     heights = np.random.default_rng(3).normal(0.0, 1e-7, (16, 16))
     case = FemCase(Surface(heights, 1e-6, "test"), Loading(0.5, normal_only=True),
                    solver=SolverOptions(elastic=True, normal_increments=8))
@@ -128,14 +115,14 @@ def test_the_preload_holds_the_flat_until_its_last_step():
     assert all(0 < a < b for a, b in zip(forces[:-1], forces[1:], strict=True))
 
 
-def test_sliding_steps_before_inception_only_mark_the_path(monkeypatch):
+def test_sliding_steps_before_inception_only_mark_the_path(only_mark_the_path):
     """The sliding steps before inception end at the looser tolerances of the solves between
     Uzawa updates, the inception step at the solver's: G5 re-gridded to 16 x 16 at F* = 0.5
     (plastic, several sliding steps) gives the same mu_s to 1e-4 as with every step solved to
     the solver's tolerances (measured on 64^2: 1e-5), in fewer Newton iterations."""
     case = FemCase(surface_on_fem_grid(builtin_surface("G5"), 16), Loading(0.5))
     loose = run(case, MPI.COMM_WORLD, progress=lambda record: None).result
-    only_mark_the_path(monkeypatch, lambda marks_path, friction: marks_path and not friction)
+    only_mark_the_path(lambda marks_path, friction, hold_height: marks_path and not friction)
     reference = run(case, MPI.COMM_WORLD, progress=lambda record: None).result
     assert loose.converged and reference.converged, (loose.message, reference.message)
     sliding = [record for record in loose.records if record.phase == "tangential"]

@@ -48,7 +48,8 @@ def test_the_load_increments_stay_within_the_solver_options():
         1 + 1e-12)
 
 
-def test_the_preload_is_solved_to_the_end_only_where_the_run_ends_there(monkeypatch):
+def test_the_preload_is_solved_to_the_end_only_where_the_run_ends_there(monkeypatch,
+                                                                       only_mark_the_path):
     """The preload's last step marks the path where sliding follows from it, and is solved to
     the solver's tolerances where a normal-only run ends there. G5 re-gridded to 16 x 16 at
     F* = 0.5: the sliding run gives the same mu_s as with that step solved to the end, in
@@ -78,13 +79,8 @@ def test_the_preload_is_solved_to_the_end_only_where_the_run_ends_there(monkeypa
     marks_path, penetration = calls[-1]
     assert not marks_path and penetration <= normal.solver.penetration_tolerance
 
-    def solved_to_the_end(self, normal_force, flat_slide, friction, hold_height=False,
-                          predictor=True, marks_path=False, exact_tangent=False):
-        marks_path = marks_path and (friction or hold_height)
-        return spied(self, normal_force, flat_slide, friction, hold_height, predictor,
-                     marks_path, exact_tangent)
-
-    monkeypatch.setattr(Equilibrium, "solve", solved_to_the_end)
+    only_mark_the_path(lambda marks_path, friction, hold_height:
+                       marks_path and (friction or hold_height))
     tight = run(FemCase(surface, Loading(0.5)), MPI.COMM_SELF, progress=lambda item: None).result
     assert tight.converged, tight.message
 
