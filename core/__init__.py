@@ -11,4 +11,4 @@ The package's layers, each importing only those below it::
     roughfriction              the core: material, case, units, errors     (folder core/)
 """
 
-__version__ = "0.18.0"
+__version__ = "0.18.1"

@@ -50,7 +50,9 @@ STAGNATION_WINDOW = 4
 #: (``UZAWA_RESIDUAL_TOLERANCE``) is accepted there as soon as its line search has cut a step:
 #: a kink lies between the iterate and the solution (a node at the edge of contact, whose shear
 #: cap follows its pressure; points at the yield surface), and Newton only halves the residual
-#: per iteration from there [-].
+#: per iteration from there; and as soon as its residuals meet their tolerance: the forces are
+#: converged, and an increment still above its own lies along a direction they hardly
+#: constrain (slipping points on the cap's ramp make the exact tangent nearly singular) [-].
 RESIDUAL_FLOOR = 10.0
 #: Newton iterations with the contact law free; then the contact set is frozen until the
 #: iterate converges: its nodes stay in contact, and nodes that penetrate join it (the set
@@ -559,7 +561,10 @@ class Equilibrium:
             if not np.isfinite(state.merit):
                 reason = "residual not finite"
                 break
-            if stagnating or (cut and settles_on_kink and converged(state, RESIDUAL_FLOOR)):
+            forces_met = (state.residual <= tolerance_force
+                          and abs(state.force_error) <= tolerance_force)
+            if stagnating or ((cut or forces_met) and settles_on_kink
+                              and converged(state, RESIDUAL_FLOOR)):
                 frozen = self._active
                 if frozen is not None:  # judge the floor under the contact law itself
                     self._active = None

@@ -355,16 +355,18 @@ def test_the_tangent_is_the_reduced_solid_tangent_plus_the_contact_blocks(monkey
 
 class ScriptedNewton(Equilibrium):
     """The Newton loop of :class:`Equilibrium` over scripted iterates: each line search returns
-    the next (step length, ||R|| / F_n) of ``script``; F_n = 1, h = 1, the contact set fixed.
+    the next (step length, ||R|| / F_n) of ``script``; F_n = 1, h = 1, the contact set fixed,
+    and every full step ``increment`` long [h].
     ``law`` maps a number of line searches done to ||R|| / F_n under the free contact law there
     (else the same as under the frozen set)."""
 
-    def __init__(self, start: float, script: list, law: dict | None = None):
+    def __init__(self, start: float, script: list, law: dict | None = None,
+                 increment: float = 5e-5):
         self.options, self.spacing = SolverOptions(), 1.0
         self.linear_solver = SimpleNamespace(method="iterative")
         self.flat = SimpleNamespace(symmetric_tangent=True, count=np.count_nonzero)
         self._active, self._hold_height, self._coupled = None, True, False
-        self._x1 = SimpleNamespace(norm=lambda kind: 5e-5)  # max |du| of a full step [h]
+        self._x1 = SimpleNamespace(norm=lambda kind: increment)  # max |du| of a full step [h]
         self._state = self._iterate(start)
         self._script = list(script)
         self._law, self._done = law or {}, 0
@@ -420,6 +422,32 @@ def test_a_tight_newton_solve_settles_at_the_floor_once_a_step_is_cut(
     assert report.converged
     assert report.iterations == iterations
     assert report.residual == pytest.approx(residual)
+
+
+@pytest.mark.parametrize("tolerance, increment, iterations", [
+    # tight: the forces meet their tolerance, the increment is within the floor: accepted
+    (1e-6, 5e-4, 2),
+    # ... an increment above the floor goes on (here to the iteration limit)
+    (1e-6, 2e-3, None),
+    # the path's loose solves (1e-4 F_n) go on to their tolerances
+    (1e-4, 5e-4, None),
+])
+def test_a_tight_newton_solve_whose_forces_are_converged_settles_at_the_floor(
+        tolerance, increment, iterations):
+    """In a solve tighter than the path's, Equilibrium._newton accepts an iterate whose
+    residuals meet their tolerance with an increment up to RESIDUAL_FLOOR times its own: full
+    Newton steps whose increments do not shrink while the residual falls run along a direction
+    the forces hardly constrain (G1 at F* = 0.155 on 256^2: 7.5e-4 h at 3.6e-8 F_n, 15
+    iterations and a cut). Otherwise it goes on to its tolerances."""
+    scale = tolerance / 1e-6
+    script = [(1.0, scale * 2e-6 * 0.4**k) for k in range(20)]
+    newton = ScriptedNewton(scale * 2.5e-5, script, increment=increment)
+    report = newton._newton(1.0, 0.0, True, False, tolerance, 1e-4, False)
+    assert report.converged == (iterations is not None), report.reason
+    if iterations is not None:
+        assert report.iterations == iterations
+    else:
+        assert "iteration limit" in report.reason
 
 
 def kinked_slope(kink: float, soft: float, stiff: float, calls: list):
