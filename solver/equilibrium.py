@@ -529,9 +529,12 @@ class Equilibrium:
                     f"{abs(state.force_error) / normal_force:.1e} F_n, last increment "
                     f"{increment / self.spacing:.1e} h")
 
+        def forces_met(state: _Iterate, factor: float = 1.0) -> bool:
+            return (state.residual <= factor * tolerance_force
+                    and abs(state.force_error) <= factor * tolerance_force)
+
         def converged(state: _Iterate, factor: float = 1.0) -> bool:
-            return (not predictor and state.residual <= factor * tolerance_force
-                    and abs(state.force_error) <= factor * tolerance_force
+            return (not predictor and forces_met(state, factor)
                     and increment <= factor * tolerance_increment)
 
         for iteration in itertools.count():
@@ -561,9 +564,7 @@ class Equilibrium:
             if not np.isfinite(state.merit):
                 reason = "residual not finite"
                 break
-            forces_met = (state.residual <= tolerance_force
-                          and abs(state.force_error) <= tolerance_force)
-            if stagnating or ((cut or forces_met) and settles_on_kink
+            if stagnating or ((cut or forces_met(state)) and settles_on_kink
                               and converged(state, RESIDUAL_FLOOR)):
                 frozen = self._active
                 if frozen is not None:  # judge the floor under the contact law itself

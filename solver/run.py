@@ -217,7 +217,7 @@ def run_loads(case: FemCase, loads: Sequence[float], comm: MPI.Comm = MPI.COMM_W
         time_mark = time.perf_counter()
         if preload.converged:
             preload = path.preload(load_case.normal_force,
-                                       then_slide=not case.loading.normal_only)
+                                   then_slide=not load_case.loading.normal_only)
         preload_s += time.perf_counter() - time_mark
         outcome = preload
         maps = {}
