@@ -1,0 +1,355 @@
+"""The contact-adaptive block: the surface zone refined 2x per level where the contact needs it.
+
+Everything lives on the finest integer grid of a refinement level L: spacing h / 2^L, N = n 2^L
+cells per side of the period n h, node (i, j, k) at x = i h / 2^L, y = j h / 2^L on node layer k
+(0 at the bottom). The vertical layering is global (one set of z-layers for the whole block):
+that of today's uniform block on the 2^L re-gridded surface (``geometry.mesh.layer_layout`` with
+``blend_layers`` and ``fine_layers`` times 2^L), so that the fine band (layers h / 2^L thick,
+``max(fine_layers, blend_layers) h`` deep) and the blend zone (``blend_layers h`` deep, where the
+roughness fades linearly) have the same depth in metres at every level; 2:1 coarsened levels
+follow below. Laterally every cell layer is a quadtree over the own grid's n x n cells: the
+surface zone (own cells of the zone mask) is refined to level L, the rest stays at the own grid,
+2:1 balanced across edges and corners (periodically); a cell layer's cells are never finer than
+its stride (``layer_stride``), so in the coarsened levels the zone coarsens with the layers.
+
+The cost of global z-layers: outside the zone the fine band holds own-grid cells (h wide) that
+are h / 2^L thick, aspect ratio 2^L : 1 (4:1 at 4x, 8:1 at 8x), and 2^L times as many of them as
+a 1x mesh has there.
+
+Every level meshes the same continuous surface, the bilinear interpolant of the own-grid heights
+(``geometry.surface.bilinear_refine``), and the blend map z -> z + w(z) Z(x, y) is trilinear in
+each own-grid column, so every level meshes the same domain exactly and a hanging node lies on
+the coarse face it hangs on. Hanging nodes (lateral 2:1 interfaces inside a layer: edge
+midpoints; vertical ones between a coarse layer and the finer layer above: edge midpoints and
+face centres) are tied to the corners of the coarse face (:func:`hanging_masters`), the
+generalisation of ``geometry.mesh.interpolation_masters`` used by ``solver/periodic.py``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+from roughfriction.case import MeshOptions
+from roughfriction.errors import InputError
+from roughfriction.geometry.mesh import blend_weight, layer_layout
+from roughfriction.geometry.surface import bilinear_refine
+
+
+@dataclass(frozen=True, eq=False)
+class CellSizes:
+    """Lateral size of the cells of every cell layer of a layered hexahedral block.
+
+    Attributes
+    ----------
+    surface_level : numpy.ndarray
+        Refinement level (0 .. ``level``) of the surface-layer cell covering each finest grid
+        cell, shape (N, N), int8: the cell is 2^(level - surface_level) finest spacings wide.
+    level : int
+        L: the finest grid is 2^L times the own grid [-].
+    layer_stride : numpy.ndarray
+        Smallest lateral cell size of each cell layer [finest spacings], bottom to top.
+    """
+
+    surface_level: np.ndarray
+    level: int
+    layer_stride: np.ndarray
+
+    @classmethod
+    def uniform(cls, n: int, layer_stride: np.ndarray) -> CellSizes:
+        """Today's structured block: an n x n surface grid, cell layers ``layer_stride`` wide."""
+        return cls(np.zeros((n, n), dtype=np.int8), 0, np.asarray(layer_stride))
+
+    @property
+    def grid_size(self) -> int:
+        """N, finest cells per side [-]."""
+        return self.surface_level.shape[0]
+
+    @property
+    def num_layers(self) -> int:
+        """Cell layers [-]."""
+        return len(self.layer_stride)
+
+    def size(self, layer, a, b) -> np.ndarray:
+        """Width [finest spacings] of the cell of cell layer ``layer`` covering finest cell (a, b)
+        (indices taken periodically)."""
+        n = self.grid_size
+        own = np.left_shift(1, self.level - self.surface_level[a % n, b % n].astype(np.int64))
+        return np.maximum(own, np.asarray(self.layer_stride)[layer])
+
+    def layer_cells(self, layer: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Cells of one cell layer: first finest indices (i0, j0) and widths, each shape (m,)."""
+        n = self.grid_size
+        i, j = np.meshgrid(np.arange(n), np.arange(n), indexing="ij")
+        width = self.size(layer, i, j)
+        first = (i % width == 0) & (j % width == 0)  # the corner cell of each aligned square
+        return i[first], j[first], width[first]
+
+
+def dilate(mask: np.ndarray, margin: int) -> np.ndarray:
+    """Periodic dilation of a cell mask by ``margin`` cells in x, y and diagonally [-]."""
+    result = np.asarray(mask, dtype=bool)
+    for _ in range(margin):
+        grown = result.copy()
+        for shift in ((1, 0), (-1, 0), (0, 1), (0, -1), (1, 1), (1, -1), (-1, 1), (-1, -1)):
+            grown |= np.roll(result, shift, axis=(0, 1))
+        result = grown
+    return result
+
+
+def quadtree_closure(demand: np.ndarray, level: int) -> np.ndarray:
+    """The coarsest quadtree over 2^level-wide roots whose level is at least ``demand`` in every
+    finest cell: a root or child square is split when a cell in it asks for a finer level.
+
+    Parameters
+    ----------
+    demand : numpy.ndarray
+        Wanted level (0 .. level) of each finest cell, shape (N, N), N a multiple of 2^level.
+    level : int
+        L [-].
+
+    Returns
+    -------
+    numpy.ndarray
+        Level of the quadtree cell covering each finest cell, shape (N, N), int8.
+    """
+    n = demand.shape[0]
+    result = np.zeros(demand.shape, dtype=np.int8)
+    for depth in range(level):
+        width = 1 << (level - depth)  # squares of this depth
+        wanted = demand.reshape(n // width, width, n // width, width).max(axis=(1, 3))
+        split = np.repeat(np.repeat(wanted > depth, width, axis=0), width, axis=1)
+        result[split] = depth + 1
+    return result
+
+
+def balanced_levels(zone: np.ndarray, level: int) -> np.ndarray:
+    """Surface quadtree levels: the zone's own cells at ``level``, the rest as coarse as the 2:1
+    balance across edges and corners (periodic) allows.
+
+    Parameters
+    ----------
+    zone : numpy.ndarray
+        Own-grid cells to refine, bool, shape (n, n).
+    level : int
+        L [-].
+
+    Returns
+    -------
+    numpy.ndarray
+        Level of the surface cell covering each finest cell, shape (n 2^L, n 2^L), int8.
+    """
+    factor = 1 << level
+    demand = np.repeat(np.repeat(np.asarray(zone, dtype=np.int8) * level, factor, axis=0),
+                       factor, axis=1)
+    while True:
+        levels = quadtree_closure(demand, level)
+        neighbours = levels.copy()
+        for shift in ((1, 0), (-1, 0), (0, 1), (0, -1), (1, 1), (1, -1), (-1, 1), (-1, -1)):
+            np.maximum(neighbours, np.roll(levels, shift, axis=(0, 1)), out=neighbours)
+        demand = np.maximum(levels, neighbours - 1)
+        if np.array_equal(demand, levels):
+            return levels
+
+
+@dataclass(frozen=True, eq=False)
+class AdaptiveLayout:
+    """The contact-adaptive block of one refinement level, in finest grid units.
+
+    Attributes
+    ----------
+    n : int
+        Own-grid cells per side [-].
+    spacing : float
+        Own grid spacing h [m].
+    cells : CellSizes
+        Lateral cell sizes of every layer.
+    layer_z : numpy.ndarray
+        Flat z of the node layers [m], bottom (-H) to top (0).
+    blend_layers : int
+        Node layers under the surface over which the roughness fades [-] (each h / 2^L thick).
+    """
+
+    n: int
+    spacing: float
+    cells: CellSizes
+    layer_z: np.ndarray
+    blend_layers: int
+
+    @property
+    def level(self) -> int:
+        """L [-]."""
+        return self.cells.level
+
+    @property
+    def grid_size(self) -> int:
+        """N = n 2^L [-]."""
+        return self.cells.grid_size
+
+    @property
+    def fine_spacing(self) -> float:
+        """h / 2^L [m]."""
+        return self.spacing / (1 << self.level)
+
+    @property
+    def num_layers(self) -> int:
+        """Cell layers [-]."""
+        return self.cells.num_layers
+
+    @property
+    def blend_depth(self) -> float:
+        """Depth of the blend zone under the mean plane [m]."""
+        return -float(self.layer_z[self.num_layers - self.blend_layers])
+
+
+def adaptive_layout(n: int, spacing: float, level: int, zone: np.ndarray,
+                    options: MeshOptions) -> AdaptiveLayout:
+    """The block under an n x n surface with the ``zone`` refined ``level`` times.
+
+    Parameters
+    ----------
+    n : int
+        Own-grid cells per side [-].
+    spacing : float
+        Own grid spacing h [m].
+    level : int
+        L: the zone is refined to h / 2^L [-], >= 0.
+    zone : numpy.ndarray
+        Own-grid cells to refine, bool, shape (n, n).
+    options : MeshOptions
+        Layering in own-grid units: ``blend_layers h`` and ``fine_layers h`` are kept in metres.
+    """
+    zone = np.asarray(zone, dtype=bool)
+    if zone.shape != (n, n):
+        raise InputError(f"refinement zone must be {n} x {n} cells, got {zone.shape}")
+    if isinstance(level, bool) or int(level) != level or level < 0:
+        raise InputError(f"refinement level must be an integer >= 0, got {level!r}")
+    factor = 1 << level
+    fine_options = replace(options, blend_layers=options.blend_layers * factor,
+                           fine_layers=options.fine_layers * factor)
+    layer_z, layer_stride = layer_layout(n * factor, spacing / factor, fine_options)
+    cells = CellSizes(balanced_levels(zone, level), level, layer_stride)
+    return AdaptiveLayout(n, spacing, cells, layer_z, fine_options.blend_layers)
+
+
+def _corners(i0: np.ndarray, j0: np.ndarray, width: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Finest indices of the 4 corners of squares, counter-clockwise from (i0, j0), (m, 4)."""
+    square = np.array([(0, 0), (1, 0), (1, 1), (0, 1)])
+    return (i0[:, None] + width[:, None] * square[:, 0],
+            j0[:, None] + width[:, None] * square[:, 1])
+
+
+def adaptive_block(cells: CellSizes) -> tuple[np.ndarray, np.ndarray]:
+    """Nodes and hexahedra of a block with a quadtree per cell layer, in finest grid units.
+
+    Node layer k holds the corners of the cells of cell layer k (the top one those of the top
+    layer), which include those of the coarser layer below; periodic images (i = N or j = N)
+    are nodes of their own, as in ``geometry.mesh.structured_block``.
+
+    Returns
+    -------
+    grid : numpy.ndarray
+        (i, j, k) of every node, shape (num_nodes, 3), by layer, then i, then j.
+    hexahedra : numpy.ndarray
+        Node numbers of each cell in gmsh order (bottom face counter-clockwise, then top),
+        shape (num_cells, 8).
+    """
+    side = cells.grid_size + 1
+    layers = [cells.layer_cells(layer) for layer in range(cells.num_layers)]
+    node_keys, offsets = [], [0]
+    for k in range(cells.num_layers + 1):
+        ci, cj = _corners(*layers[min(k, cells.num_layers - 1)])
+        node_keys.append(np.unique(ci * side + cj))
+        offsets.append(offsets[-1] + len(node_keys[-1]))
+    grid = np.concatenate([np.column_stack([keys // side, keys % side, np.full(len(keys), k)])
+                           for k, keys in enumerate(node_keys)])
+    hexahedra = []
+    for layer, squares in enumerate(layers):
+        ci, cj = _corners(*squares)
+        key = ci * side + cj
+        bottom = offsets[layer] + np.searchsorted(node_keys[layer], key)
+        top = offsets[layer + 1] + np.searchsorted(node_keys[layer + 1], key)
+        hexahedra.append(np.hstack([bottom, top]))
+    return grid, np.concatenate(hexahedra)
+
+
+def hanging_masters(grid: np.ndarray, cells: CellSizes) -> tuple[np.ndarray, np.ndarray]:
+    """Where each node's displacement comes from: itself, or for a hanging node the corners of
+    the coarse face it lies on, bilinearly (linearly on a coarse edge).
+
+    A node hangs when it lies on the top or bottom face of a cell (of the cell layer below or
+    above its node layer, periodically) without being one of its corners; it is tied to the
+    widest such face, which is exact for trilinear hexahedra. In the layouts of
+    :func:`adaptive_layout` (2:1 balanced across edges and corners) no master hangs itself.
+
+    Parameters
+    ----------
+    grid : numpy.ndarray
+        (i, j, k) of nodes, shape (m, 3) (i, j in 0 .. N).
+    cells : CellSizes
+        The block's cell sizes.
+
+    Returns
+    -------
+    masters : numpy.ndarray
+        (i, j, k) of up to 4 master nodes per node, shape (m, 4, 3), i and j possibly outside
+        0 .. N (a periodic image); unused slots repeat the first master with weight 0.
+    weights : numpy.ndarray
+        Interpolation weights, shape (m, 4), summing to 1, largest first: (1, 0, 0, 0) for a
+        node that does not hang, (1/2, 1/2, 0, 0) at a coarse edge's midpoint, 1/4 each at a
+        coarse face's centre.
+    """
+    i, j, k = np.asarray(grid, dtype=np.int64).T
+    width = np.zeros_like(i)  # of the widest face the node hangs on (0: none)
+    first_i, first_j = i.copy(), j.copy()
+    for layer in (k - 1, k):  # the cell layers below and above node layer k
+        inside = (layer >= 0) & (layer < cells.num_layers)
+        layer = np.clip(layer, 0, cells.num_layers - 1)
+        for a, b in ((i - 1, j - 1), (i - 1, j), (i, j - 1), (i, j)):  # finest cells at the node
+            size = cells.size(layer, a, b)
+            i0, j0 = a // size * size, b // size * size
+            wider = inside & (((i - i0) % size != 0) | ((j - j0) % size != 0)) & (size > width)
+            width = np.where(wider, size, width)
+            first_i, first_j = np.where(wider, i0, first_i), np.where(wider, j0, first_j)
+    hanging = width > 0
+    span = np.where(hanging, width, 1)
+    t_i, t_j = (i - first_i) / span, (j - first_j) / span
+    masters = np.stack([np.column_stack([first_i + a * span, first_j + b * span, k])
+                        for a in (0, 1) for b in (0, 1)], axis=1)
+    weights = np.column_stack([(t_i if a else 1.0 - t_i) * (t_j if b else 1.0 - t_j)
+                               for a in (0, 1) for b in (0, 1)])
+    # largest weight first; unused slots repeat it
+    order = np.argsort(-weights, axis=1, kind="stable")
+    weights = np.take_along_axis(weights, order, axis=1)
+    masters = np.take_along_axis(masters, order[:, :, None], axis=1)
+    masters = np.where((weights > 0.0)[:, :, None], masters, masters[:, :1])
+    return masters, weights
+
+
+def node_coordinates(layout: AdaptiveLayout, grid: np.ndarray, heights: np.ndarray
+                     ) -> np.ndarray:
+    """Node coordinates [m] on the surface: the flat block with the mean-free bilinear surface
+    of the own-grid ``heights`` (n, n) [m], faded linearly over the blend zone.
+
+    Returns
+    -------
+    numpy.ndarray
+        x, y, z of the nodes [m], shape (m, 3).
+    """
+    heights = np.asarray(heights, dtype=float)
+    if heights.shape != (layout.n, layout.n):
+        raise InputError(f"heights must be {layout.n} x {layout.n}, got {heights.shape}")
+    n, (i, j, k) = layout.grid_size, np.asarray(grid).T
+    surface = bilinear_refine(heights - heights.mean(), 1 << layout.level)
+    fade = blend_weight(k, layout.num_layers, layout.blend_layers)
+    return np.column_stack([i * layout.fine_spacing, j * layout.fine_spacing,
+                            layout.layer_z[k] + fade * surface[i % n, j % n]])
+
+
+def reduced_dofs(grid: np.ndarray, cells: CellSizes) -> int:
+    """Reduced dofs of a block: 3 per node above the bottom that is neither a periodic image
+    (i = N or j = N) nor hanging [-]."""
+    n = cells.grid_size
+    _, weights = hanging_masters(grid, cells)
+    own = (grid[:, 0] < n) & (grid[:, 1] < n) & (grid[:, 2] > 0) & (weights[:, 0] == 1.0)
+    return 3 * int(np.count_nonzero(own))

@@ -1,0 +1,257 @@
+"""The contact-adaptive block: quadtree layers, 2:1 balance, hanging-node masters, blend depth."""
+
+import numpy as np
+import pytest
+from roughfriction.case import MeshOptions
+from roughfriction.errors import InputError
+from roughfriction.geometry.adaptive import (
+    CellSizes,
+    adaptive_block,
+    adaptive_layout,
+    balanced_levels,
+    dilate,
+    hanging_masters,
+    node_coordinates,
+    reduced_dofs,
+)
+from roughfriction.geometry.mesh import (
+    MIN_JACOBIAN_RATIO,
+    blend_layers_needed,
+    corner_jacobians,
+    interpolation_masters,
+    layer_layout,
+    mesh_size,
+    structured_block,
+)
+
+SPACING = 1e-6
+#: gmsh hexahedron corners in dolfinx's tensor-product order (a + 2 b + 4 c).
+TENSOR_ORDER = [0, 1, 3, 2, 4, 5, 7, 6]
+
+
+def patches(n, seed=0, fraction=0.08, margin=1):
+    """A zone mask: random own cells dilated by ``margin``."""
+    return dilate(np.random.default_rng(seed).random((n, n)) < fraction, margin)
+
+
+def fine_options(options, level):
+    """Today's options for the 2^level re-gridded surface at the same blend and fine depth."""
+    factor = 2**level
+    return MeshOptions(blend_layers=options.blend_layers * factor,
+                       fine_layers=options.fine_layers * factor, coarsen=options.coarsen,
+                       growth=options.growth, depth=options.depth)
+
+
+def as_sets(grid, hexahedra):
+    """Nodes as a set of (i, j, k), cells as a set of sorted corner tuples."""
+    nodes = {tuple(node) for node in grid}
+    cells = {tuple(sorted(map(tuple, grid[cell]))) for cell in hexahedra}
+    return nodes, cells
+
+
+@pytest.mark.parametrize("level", [0, 1, 2])
+@pytest.mark.parametrize("options", [MeshOptions(), MeshOptions(blend_layers=3, fine_layers=1),
+                                     MeshOptions(coarsen=False, growth=2.0)])
+def test_an_all_zone_mask_gives_the_uniformly_refined_block(level, options):
+    n = 4
+    layout = adaptive_layout(n, SPACING, level, np.ones((n, n), bool), options)
+    big_n = n * 2**level
+    layer_z, layer_stride = layer_layout(big_n, SPACING / 2**level, fine_options(options, level))
+    np.testing.assert_allclose(layout.layer_z, layer_z, rtol=0, atol=1e-18)
+    np.testing.assert_array_equal(layout.cells.layer_stride, layer_stride)
+    assert as_sets(*adaptive_block(layout.cells)) == as_sets(*structured_block(big_n,
+                                                                                layer_stride))
+    grid, _ = adaptive_block(layout.cells)
+    assert reduced_dofs(grid, layout.cells) == mesh_size(big_n, fine_options(options, level))[1]
+
+
+def test_the_surface_quadtree_is_refined_in_the_zone_and_2_to_1_balanced():
+    n, level = 8, 3
+    zone = patches(n, seed=2, margin=0)
+    assert 0 < zone.sum() < n * n // 4
+    levels = balanced_levels(zone, level)
+    factor = 2**level
+    own = levels.reshape(n, factor, n, factor).transpose(0, 2, 1, 3)  # (I, J, a, b)
+    assert np.all(own[zone] == level)  # the zone at the finest level
+    assert np.any(own[~zone] == 0)  # the rest as coarse as the balance allows
+    for shift in ((1, 0), (0, 1), (1, 1), (1, -1)):  # across edges and corners, periodically
+        assert np.abs(levels - np.roll(levels, shift, axis=(0, 1))).max() <= 1
+    # aligned squares: the cell of level l covering a finest cell is one constant square
+    width = 2 ** (level - levels.astype(int))
+    i, j = np.meshgrid(np.arange(n * factor), np.arange(n * factor), indexing="ij")
+    first_i, first_j = i // width * width, j // width * width
+    np.testing.assert_array_equal(levels, levels[first_i, first_j])
+
+
+def test_each_layer_is_balanced_and_no_finer_than_the_layer_above():
+    layout = adaptive_layout(8, SPACING, 2, patches(8, seed=1), MeshOptions())
+    cells = layout.cells
+    i, j = np.meshgrid(np.arange(cells.grid_size), np.arange(cells.grid_size), indexing="ij")
+    sizes = np.array([cells.size(layer, i, j) for layer in range(cells.num_layers)])
+    assert np.all((sizes[:-1] == sizes[1:]) | (sizes[:-1] == 2 * sizes[1:]))
+    for shift in ((1, 0), (0, 1), (1, 1), (1, -1)):
+        ratio = sizes / np.roll(sizes, shift, axis=(1, 2))
+        assert set(np.unique(ratio)) <= {0.5, 1.0, 2.0}
+    # the cells tile every layer once
+    for layer in range(cells.num_layers):
+        _, _, width = cells.layer_cells(layer)
+        assert np.sum(width.astype(float) ** 2) == cells.grid_size**2
+
+
+def trilinear(points, coefficients):
+    """c . (1, i, j, k, ij, ik, jk, ijk) at (i, j, k) points, any leading shape."""
+    i, j, k = (points[..., axis].astype(float) for axis in range(3))
+    terms = np.stack([np.ones_like(i), i, j, k, i * j, i * k, j * k, i * j * k], axis=-1)
+    return terms @ coefficients
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_the_masters_of_every_node_reproduce_trilinear_fields(seed):
+    layout = adaptive_layout(6, SPACING, 2, patches(6, seed=seed), MeshOptions(blend_layers=3))
+    grid, _ = adaptive_block(layout.cells)
+    masters, weights = hanging_masters(grid, layout.cells)
+    hanging = weights[:, 0] < 1.0
+    assert hanging.sum() > 0.1 * len(grid)
+    np.testing.assert_allclose(weights.sum(axis=1), 1.0)
+    assert set(np.unique(weights[hanging][:, :2].round(12))) <= {0.25, 0.5}
+    for coefficients in np.random.default_rng(seed).normal(size=(3, 8)):
+        expected = trilinear(grid, coefficients)
+        interpolated = (weights * trilinear(masters, coefficients)).sum(axis=1)
+        np.testing.assert_allclose(interpolated, expected, rtol=1e-12, atol=1e-9)
+    # the masters (periodically) are nodes that do not hang themselves
+    n = layout.grid_size
+    key = (grid[:, 2] * n + grid[:, 0] % n) * n + grid[:, 1] % n
+    free_keys = set(key[~hanging])
+    used = masters[weights > 0.0]
+    assert set((used[:, 2] * n + used[:, 0] % n) * n + used[:, 1] % n) <= free_keys
+
+
+def expand_random_field(grid, cells, seed=0):
+    """A random value per reduced node (periodic, bottom included), carried to every node."""
+    n = cells.grid_size
+    masters, weights = hanging_masters(grid, cells)
+    key = lambda p: (p[..., 2] * n + p[..., 0] % n) * n + p[..., 1] % n  # noqa: E731
+    values = np.random.default_rng(seed).normal(size=(cells.num_layers + 1) * n * n)
+    return (weights * values[key(masters)]).sum(axis=1)
+
+
+@pytest.mark.parametrize("level", [1, 2])
+def test_the_field_is_continuous_across_every_2_to_1_interface(level):
+    """Every node on a cell's top or bottom face (edges included) carries the bilinear
+    interpolation of that face's corners: no gap between coarse and fine cells."""
+    cells = adaptive_layout(4, SPACING, level, patches(4, seed=3, fraction=0.15),
+                            MeshOptions(fine_layers=2)).cells
+    grid, hexahedra = adaptive_block(cells)
+    u = expand_random_field(grid, cells)
+    checked = 0
+    for cell in hexahedra:
+        for face in (cell[:4], cell[4:]):
+            corners = grid[face]
+            (i0, j0, k), width = corners[0], corners[1, 0] - corners[0, 0]
+            on_face = np.flatnonzero((grid[:, 2] == k) & (grid[:, 0] >= i0)
+                                     & (grid[:, 0] <= i0 + width) & (grid[:, 1] >= j0)
+                                     & (grid[:, 1] <= j0 + width))
+            t_i = (grid[on_face, 0] - i0) / width
+            t_j = (grid[on_face, 1] - j0) / width
+            bilinear = ((1 - t_i) * (1 - t_j) * u[face[0]] + t_i * (1 - t_j) * u[face[1]]
+                        + t_i * t_j * u[face[2]] + (1 - t_i) * t_j * u[face[3]])
+            np.testing.assert_allclose(u[on_face], bilinear, rtol=1e-12, atol=1e-12)
+            checked += len(on_face) - 4
+    assert checked > 0  # some faces carry hanging nodes
+
+
+def test_today_s_coarsened_block_gets_today_s_masters():
+    n, stride = 8, np.array([4, 4, 2, 2, 1, 1])
+    grid, _ = structured_block(n, stride)
+    masters, weights = hanging_masters(grid, CellSizes.uniform(n, stride))
+    old_masters, old_weights = interpolation_masters(grid, stride)
+    for node in range(len(grid)):
+        new = {tuple(m): w for m, w in zip(masters[node], weights[node], strict=True) if w}
+        old = {tuple(m): w for m, w in zip(old_masters[node], old_weights[node], strict=True)
+               if w}
+        assert new == old
+
+
+def rough(n, rms, seed=0):
+    return np.random.default_rng(seed).normal(0.0, rms, (n, n))
+
+
+def jacobian_ratio(layout, heights):
+    """Smallest corner Jacobian of each moved cell over the flat cell's [-]."""
+    grid, hexahedra = adaptive_block(layout.cells)
+    cell_nodes = hexahedra[:, TENSOR_ORDER]
+    moved = node_coordinates(layout, grid, heights)
+    flat = node_coordinates(layout, grid, np.zeros_like(heights))
+    return (corner_jacobians(moved, cell_nodes) / corner_jacobians(flat, cell_nodes)).min(axis=1)
+
+
+@pytest.mark.parametrize("level", [0, 1, 2])
+def test_cell_jacobians_stay_positive_on_a_rough_surface(level):
+    n = 8
+    heights = rough(n, 1.0 * SPACING, seed=4)  # valleys a few grid spacings deep
+    needed = blend_layers_needed(heights, SPACING)
+    assert needed > 2
+    zone = patches(n, seed=4)
+    layout = adaptive_layout(n, SPACING, level, zone, MeshOptions(blend_layers=needed))
+    assert jacobian_ratio(layout, heights).min() >= MIN_JACOBIAN_RATIO
+    # the check can fail: half the blend depth inverts cells
+    thin = adaptive_layout(n, SPACING, level, zone, MeshOptions(blend_layers=needed // 3))
+    assert jacobian_ratio(thin, heights).min() <= 0.0
+
+
+def test_the_blend_zone_has_the_same_depth_in_metres_at_every_level():
+    n, options = 8, MeshOptions(blend_layers=3, fine_layers=4)
+    heights = rough(n, 0.3 * SPACING, seed=5)
+    zone = patches(n, seed=5)
+    for level in range(4):
+        layout = adaptive_layout(n, SPACING, level, zone, options)
+        assert layout.blend_depth == pytest.approx(3 * SPACING, rel=1e-12)
+        grid, _ = adaptive_block(layout.cells)
+        z = node_coordinates(layout, grid, heights)[:, 2]
+        flat = layout.layer_z[grid[:, 2]]
+        deep = flat <= -layout.blend_depth * (1 + 1e-12)
+        np.testing.assert_array_equal(z[deep], flat[deep])  # no roughness below it ...
+        # ... and the fine band (4 h) in layers h / 2^L thick
+        thickness = np.diff(layout.layer_z)[::-1][: 4 * 2**level]
+        np.testing.assert_allclose(thickness, SPACING / 2**level)
+
+
+def test_every_level_meshes_the_same_bilinear_surface():
+    n = 4
+    heights = rough(n, 0.3 * SPACING, seed=6)
+    coarse = adaptive_layout(n, SPACING, 0, np.zeros((n, n), bool), MeshOptions())
+    fine = adaptive_layout(n, SPACING, 2, patches(n, seed=6, fraction=0.2), MeshOptions())
+    grid, _ = adaptive_block(fine.cells)
+    top = grid[grid[:, 2] == fine.num_layers]
+    z = node_coordinates(fine, top, heights)[:, 2]
+    # the own-grid mesh's surface at the same points: bilinear in each own cell
+    x = top[:, :2] / 4.0
+    i0 = np.floor(x).astype(int)
+    t = x - i0
+    z_mean_free = heights - heights.mean()
+    corner = lambda a, b: z_mean_free[(i0[:, 0] + a) % n, (i0[:, 1] + b) % n]  # noqa: E731
+    expected = ((1 - t[:, 0]) * (1 - t[:, 1]) * corner(0, 0) + t[:, 0] * (1 - t[:, 1])
+                * corner(1, 0) + t[:, 0] * t[:, 1] * corner(1, 1)
+                + (1 - t[:, 0]) * t[:, 1] * corner(0, 1))
+    np.testing.assert_allclose(z, expected, rtol=0, atol=1e-18)
+    assert coarse.num_layers < fine.num_layers
+
+
+@pytest.mark.parametrize("arguments", [
+    {"zone": np.ones((3, 3), bool)}, {"level": -1}, {"level": 1.5}, {"level": True}])
+def test_bad_adaptive_layouts_are_refused(arguments):
+    values = {"n": 4, "spacing": SPACING, "level": 1, "zone": np.ones((4, 4), bool),
+              "options": MeshOptions()} | arguments
+    with pytest.raises(InputError):
+        adaptive_layout(**values)
+
+
+def test_a_small_zone_costs_a_fraction_of_the_uniform_dofs():
+    n, level = 16, 2
+    zone = patches(n, seed=7, fraction=0.03, margin=1)
+    layout = adaptive_layout(n, SPACING, level, zone, MeshOptions())
+    grid, _ = adaptive_block(layout.cells)
+    adaptive = reduced_dofs(grid, layout.cells)
+    uniform = mesh_size(n * 2**level, fine_options(MeshOptions(), level))[1]
+    own = mesh_size(n, MeshOptions())[1]
+    assert own < adaptive < 0.6 * uniform
