@@ -17,7 +17,8 @@ import numpy as np
 from dolfinx import la
 from mpi4py import MPI
 from petsc4py import PETSc
-from roughfriction.geometry.mesh import Block, interpolation_masters
+from roughfriction.geometry.adaptive import CellSizes, hanging_masters
+from roughfriction.geometry.mesh import Block
 
 
 def dof_node_grid_index(V, block: Block) -> np.ndarray:
@@ -42,7 +43,10 @@ class PeriodicReduction:
     V : dolfinx.fem.FunctionSpace
         Vector P1 space (block size 3) on the block.
     block : Block
-        The mesh with its structured grid index.
+        The mesh with its structured grid index (finest grid units for an adaptive block).
+    cell_sizes : CellSizes, optional
+        Lateral cell sizes of every cell layer (``geometry.adaptive``); by default those of the
+        structured block, ``block.layer_stride`` wide everywhere.
 
     Attributes
     ----------
@@ -59,12 +63,14 @@ class PeriodicReduction:
         Local node of V behind each owned reduced node, in reduced order.
     """
 
-    def __init__(self, V, block: Block):
+    def __init__(self, V, block: Block, cell_sizes: CellSizes | None = None):
         comm = block.mesh.comm
         index_map = V.dofmap.index_map
         grid = dof_node_grid_index(V, block)
         n, num_owned = block.n, index_map.size_local
-        masters, weights = interpolation_masters(grid, block.layer_stride)
+        if cell_sizes is None:
+            cell_sizes = CellSizes.uniform(n, block.layer_stride)
+        masters, weights = hanging_masters(grid, cell_sizes)
         hanging = weights[:, 0] < 1.0
 
         # Masters: nodes with i < N, j < N above the bottom that are not hanging, numbered rank

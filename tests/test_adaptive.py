@@ -255,3 +255,69 @@ def test_a_small_zone_costs_a_fraction_of_the_uniform_dofs():
     uniform = mesh_size(n * 2**level, fine_options(MeshOptions(), level))[1]
     own = mesh_size(n, MeshOptions())[1]
     assert own < adaptive < 0.6 * uniform
+
+
+def dolfinx_block(layout, heights):
+    """The adaptive block as a dolfinx mesh on this process (serial test helper): Block."""
+    import ufl
+    from dolfinx import cpp
+    from dolfinx.cpp.io import perm_gmsh
+    from dolfinx.mesh import create_mesh
+    from mpi4py import MPI
+    from roughfriction.geometry.mesh import Block
+
+    grid, hexahedra = adaptive_block(layout.cells)
+    cells = hexahedra[:, perm_gmsh(cpp.mesh.CellType.hexahedron, 8)]
+    domain = ufl.Mesh(ufl.VectorElement("Lagrange", ufl.hexahedron, 1))
+    mesh = create_mesh(MPI.COMM_SELF, cells, node_coordinates(layout, grid, heights), domain)
+    grid_index = grid[mesh.geometry.input_global_indices]
+    return Block(mesh, grid_index, layout.layer_z, layout.cells.layer_stride, layout.grid_size,
+                 layout.fine_spacing)
+
+
+@pytest.mark.fem
+def test_a_flat_adaptive_block_under_uniform_pressure_is_in_uniaxial_strain():
+    """Periodic sides, fixed bottom, pressure p on top: u_z = -p (z + H) / M, u_x = u_y = 0
+    (M = lambda + 2 mu), which trilinear hexahedra and the hanging-node ties hold exactly."""
+    import ufl
+    from dolfinx import fem
+    from dolfinx.fem import petsc as fem_petsc
+    from petsc4py import PETSc
+    from roughfriction.geometry.mesh import Boundary, boundary_facet_tags
+    from roughfriction.solver.periodic import PeriodicReduction
+
+    n = 4
+    layout = adaptive_layout(n, SPACING, 2, patches(n, seed=3, fraction=0.15),
+                             MeshOptions(fine_layers=2))
+    block = dolfinx_block(layout, np.zeros((n, n)))
+    V = fem.VectorFunctionSpace(block.mesh, ("Lagrange", 1))
+    reduction = PeriodicReduction(V, block, layout.cells)
+    assert 3 * reduction.num_reduced_global == reduced_dofs(adaptive_block(layout.cells)[0],
+                                                            layout.cells)
+    young, poisson, pressure = 200e9, 0.3, 1e8  # [Pa], [-], [Pa]
+    mu, lame = young / (2 * (1 + poisson)), young * poisson / ((1 + poisson) * (1 - 2 * poisson))
+    u, v = ufl.TrialFunction(V), ufl.TestFunction(V)
+    strain = lambda w: ufl.sym(ufl.grad(w))  # noqa: E731
+    stress = 2 * mu * strain(u) + lame * ufl.tr(strain(u)) * ufl.Identity(3)
+    ds = ufl.Measure("ds", domain=block.mesh, subdomain_data=boundary_facet_tags(block))
+    stiffness = fem_petsc.assemble_matrix(fem.form(ufl.inner(stress, strain(v)) * ufl.dx))
+    stiffness.assemble()
+    load = fem_petsc.assemble_vector(fem.form(-pressure * v[2] * ds(int(Boundary.CONTACT))))
+    load.ghostUpdate(PETSc.InsertMode.ADD_VALUES, PETSc.ScatterMode.REVERSE)
+    reduced_load = reduction.create_reduced_vector()
+    reduction.restrict(load, reduced_load)
+    solver = PETSc.KSP().create(block.mesh.comm)
+    solver.setOperators(reduction.reduce_matrix(stiffness))
+    solver.setType("preonly")
+    solver.getPC().setType("lu")
+    solution = reduction.create_reduced_vector()
+    solver.solve(reduced_load, solution)
+    displacement = fem.Function(V)
+    reduction.expand(solution, displacement)
+
+    z = V.tabulate_dof_coordinates()[:, 2]
+    expected_z = -pressure * (z + block.depth) / (lame + 2 * mu)
+    computed = displacement.x.array.reshape(-1, 3)
+    scale = np.abs(expected_z).max()
+    np.testing.assert_allclose(computed[:, 2], expected_z, rtol=0, atol=1e-9 * scale)
+    np.testing.assert_allclose(computed[:, :2], 0.0, rtol=0, atol=1e-9 * scale)
