@@ -80,23 +80,27 @@ class PeriodicReduction:
         candidate = np.flatnonzero(((grid[:, 0] < n) & (grid[:, 1] < n) & (grid[:, 2] > 0)
                                     & ~hanging)[:num_owned])
         candidate_keys = _key(grid[candidate], n)
-        num_keys = block.num_layers * n * n
-        owner = np.full(num_keys, comm.size, dtype=np.int32)
-        owner[candidate_keys] = comm.rank
+        # the master positions of all ranks, numbered compactly (a dense key space would take
+        # num_layers N^2 entries on every rank: ~30 M at an 8x level of a 128^2 surface)
+        positions = np.unique(np.concatenate(comm.allgather(candidate_keys)))
+        candidate_position = np.searchsorted(positions, candidate_keys)
+        owner = np.full(len(positions), comm.size, dtype=np.int32)
+        owner[candidate_position] = comm.rank
         comm.Allreduce(MPI.IN_PLACE, owner, op=MPI.MIN)
-        mine = owner[candidate_keys] == comm.rank
-        owned_keys, first = np.unique(candidate_keys[mine], return_index=True)
+        mine = owner[candidate_position] == comm.rank
+        owned_positions, first = np.unique(candidate_position[mine], return_index=True)
         self.master_node = candidate[mine][first]
-        self.num_reduced_owned = len(owned_keys)
+        self.num_reduced_owned = len(owned_positions)
         self.reduced_offset = comm.exscan(self.num_reduced_owned) or 0  # None on rank 0
 
         # Every node finds its masters' numbers through the key (k - 1, i mod N, j mod N).
-        numbering = np.full(num_keys, -1, dtype=np.int64)
-        numbering[owned_keys] = self.reduced_offset + np.arange(len(owned_keys))
+        numbering = np.full(len(positions) + 1, -1, dtype=np.int64)  # the last: no master
+        numbering[owned_positions] = self.reduced_offset + np.arange(len(owned_positions))
         comm.Allreduce(MPI.IN_PLACE, numbering, op=MPI.MAX)
         above_bottom = grid[:, 2] > 0
         columns = np.full(weights.shape, -1, dtype=np.int64)
-        columns[above_bottom] = numbering[_key(masters[above_bottom].reshape(-1, 3), n)].reshape(
+        master_keys = _key(masters[above_bottom].reshape(-1, 3), n)
+        columns[above_bottom] = numbering[_position(positions, master_keys)].reshape(
             -1, weights.shape[1])
         weights = np.where(above_bottom[:, None], weights, 0.0)
         self.reduced_node = np.where(above_bottom & ~hanging, columns[:, 0], -1)
@@ -178,6 +182,14 @@ class PeriodicReduction:
             modes.append(mode)
         la.orthonormalize(modes)
         return PETSc.NullSpace().create(vectors=modes, comm=self.P.comm)
+
+
+def _position(positions: np.ndarray, keys: np.ndarray) -> np.ndarray:
+    """Index of each key in the sorted ``positions``, len(positions) where it is absent."""
+    index = np.searchsorted(positions, keys)
+    found = index < len(positions)
+    found[found] = positions[index[found]] == keys[found]
+    return np.where(found, index, len(positions))
 
 
 def _key(grid: np.ndarray, n: int) -> np.ndarray:
