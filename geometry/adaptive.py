@@ -2,19 +2,22 @@
 
 Everything lives on the finest integer grid of a refinement level L: spacing h / 2^L, N = n 2^L
 cells per side of the period n h, node (i, j, k) at x = i h / 2^L, y = j h / 2^L on node layer k
-(0 at the bottom). The vertical layering is global (one set of z-layers for the whole block):
-that of today's uniform block on the 2^L re-gridded surface (``geometry.mesh.layer_layout`` with
-``blend_layers`` and ``fine_layers`` times 2^L), so that the fine band (layers h / 2^L thick,
-``max(fine_layers, blend_layers) h`` deep) and the blend zone (``blend_layers h`` deep, where the
-roughness fades linearly) have the same depth in metres at every level; 2:1 coarsened levels
-follow below. Laterally every cell layer is a quadtree over the own grid's n x n cells: the
+(0 at the bottom). Laterally every cell layer is a quadtree over the own grid's n x n cells: the
 surface zone (own cells of the zone mask) is refined to level L, the rest stays at the own grid,
 2:1 balanced across edges and corners (periodically); a cell layer's cells are never finer than
-its stride (``layer_stride``), so in the coarsened levels the zone coarsens with the layers.
+its stride (``layer_stride``), so the zone coarsens with depth.
 
-The cost of global z-layers: outside the zone the fine band holds own-grid cells (h wide) that
-are h / 2^L thick, aspect ratio 2^L : 1 (4:1 at 4x, 8:1 at 8x), and 2^L times as many of them as
-a 1x mesh has there.
+The vertical layering is global (one set of z-layers for the whole block, :func:`adaptive_layers`),
+graded towards the contact as ``--refine``'s uniform meshes are: ``fine_layers`` layers
+h / 2^L thick at the top, then two cubic layers per 2:1 level up to the own grid (h), own-grid
+layers down to ``max(fine_layers, blend_layers) h``, then today's coarsened levels
+(``geometry.mesh.layer_layout``). The blend zone, where the roughness fades linearly, is
+``blend_layers h`` deep in metres at every level (a node layer is put at its bottom). At L = 0
+this is today's layout. The cost of global z-layers: outside the zone the top layers hold
+own-grid cells (h wide) as thin as the zone's, aspect ratio up to 2^L : 1 (4:1 at 4x, 8:1 at 8x)
+in the ``fine_layers`` finest layers, 2^(L-1) : 1 in the next two, ...; a few layers of own cells
+(about ``fine_layers + 2 L`` instead of ``max(fine_layers, blend_layers)``) rather than an octree's
+hanging nodes on vertical faces.
 
 Every level meshes the same continuous surface, the bilinear interpolant of the own-grid heights
 (``geometry.surface.bilinear_refine``), and the blend map z -> z + w(z) Z(x, y) is trilinear in
@@ -27,12 +30,13 @@ generalisation of ``geometry.mesh.interpolation_masters`` used by ``solver/perio
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, replace
 
 import numpy as np
 from roughfriction.case import MeshOptions
 from roughfriction.errors import InputError
-from roughfriction.geometry.mesh import blend_weight, layer_layout
+from roughfriction.geometry.mesh import COARSE_LAYERS_PER_LEVEL, layer_layout
 from roughfriction.geometry.surface import bilinear_refine
 
 
@@ -166,15 +170,16 @@ class AdaptiveLayout:
         Lateral cell sizes of every layer.
     layer_z : numpy.ndarray
         Flat z of the node layers [m], bottom (-H) to top (0).
-    blend_layers : int
-        Node layers under the surface over which the roughness fades [-] (each h / 2^L thick).
+    blend_depth : float
+        Depth under the mean plane over which the roughness fades linearly to 0 [m], a node
+        layer's.
     """
 
     n: int
     spacing: float
     cells: CellSizes
     layer_z: np.ndarray
-    blend_layers: int
+    blend_depth: float
 
     @property
     def level(self) -> int:
@@ -196,10 +201,64 @@ class AdaptiveLayout:
         """Cell layers [-]."""
         return self.cells.num_layers
 
-    @property
-    def blend_depth(self) -> float:
-        """Depth of the blend zone under the mean plane [m]."""
-        return -float(self.layer_z[self.num_layers - self.blend_layers])
+
+def adaptive_layers(n: int, spacing: float, level: int, options: MeshOptions
+                    ) -> tuple[np.ndarray, np.ndarray]:
+    """Flat z of the node layers and the smallest lateral cell size of each cell layer of the
+    level-L block.
+
+    Top down: ``options.fine_layers`` layers h / 2^L thick (stride 1); for each stride s = 2,
+    4, .., 2^(L-1), ``COARSE_LAYERS_PER_LEVEL`` layers s h / 2^L thick; then the own grid's
+    ``geometry.mesh.layer_layout`` below that depth (own-grid layers to at least
+    ``max(fine_layers, blend_layers) h``, then its coarsened levels, down to the depth H), its
+    first layer cut at the band's bottom; a layer is split in two where the blend zone ends.
+
+    Parameters
+    ----------
+    n : int
+        Own-grid cells per side [-].
+    spacing : float
+        Own grid spacing h [m].
+    level : int
+        L [-].
+    options : MeshOptions
+        Layering; ``blend_layers h`` is the blend depth in metres at every level.
+
+    Returns
+    -------
+    layer_z : numpy.ndarray
+        Increasing z of the node layers [m], -H first, 0 last.
+    layer_stride : numpy.ndarray
+        Smallest lateral cell size of each cell layer [finest spacings], bottom to top.
+    """
+    factor = 1 << level
+    thickness, stride = [], []  # the band over the own grid, top down [m], [finest spacings]
+    if level > 0:
+        thickness, stride = [spacing / factor] * options.fine_layers, [1] * options.fine_layers
+    width = 2
+    while width < factor:
+        thickness += [width * spacing / factor] * COARSE_LAYERS_PER_LEVEL
+        stride += [width] * COARSE_LAYERS_PER_LEVEL
+        width *= 2
+    band = float(np.sum(thickness))
+    own_layers = max(options.fine_layers, options.blend_layers, math.ceil(band / spacing - 1e-9))
+    own_z, own_stride = layer_layout(n, spacing, replace(options, fine_layers=own_layers))
+    tolerance = 1e-9 * spacing / factor
+    below = own_z[own_z < -band - tolerance]
+    layer_z = np.concatenate([below, -np.cumsum(thickness)[::-1], [0.0]])
+    middle = 0.5 * (below + np.append(below[1:], -band))
+    layer_stride = np.concatenate([own_stride[np.searchsorted(own_z, middle) - 1] * factor,
+                                   stride[::-1]]).astype(np.int64)
+    return _split_at(layer_z, layer_stride, -options.blend_layers * spacing, tolerance)
+
+
+def _split_at(layer_z: np.ndarray, layer_stride: np.ndarray, z: float, tolerance: float
+              ) -> tuple[np.ndarray, np.ndarray]:
+    """The layers with a node layer at z [m] (the cell layer around it split in two)."""
+    if np.min(np.abs(layer_z - z)) <= tolerance:
+        return layer_z, layer_stride
+    layer = np.searchsorted(layer_z, z) - 1
+    return (np.insert(layer_z, layer + 1, z), np.insert(layer_stride, layer, layer_stride[layer]))
 
 
 def adaptive_layout(n: int, spacing: float, level: int, zone: np.ndarray,
@@ -217,19 +276,16 @@ def adaptive_layout(n: int, spacing: float, level: int, zone: np.ndarray,
     zone : numpy.ndarray
         Own-grid cells to refine, bool, shape (n, n).
     options : MeshOptions
-        Layering in own-grid units: ``blend_layers h`` and ``fine_layers h`` are kept in metres.
+        Layering (:func:`adaptive_layers`).
     """
     zone = np.asarray(zone, dtype=bool)
     if zone.shape != (n, n):
         raise InputError(f"refinement zone must be {n} x {n} cells, got {zone.shape}")
     if isinstance(level, bool) or int(level) != level or level < 0:
         raise InputError(f"refinement level must be an integer >= 0, got {level!r}")
-    factor = 1 << level
-    fine_options = replace(options, blend_layers=options.blend_layers * factor,
-                           fine_layers=options.fine_layers * factor)
-    layer_z, layer_stride = layer_layout(n * factor, spacing / factor, fine_options)
+    layer_z, layer_stride = adaptive_layers(n, spacing, level, options)
     cells = CellSizes(balanced_levels(zone, level), level, layer_stride)
-    return AdaptiveLayout(n, spacing, cells, layer_z, fine_options.blend_layers)
+    return AdaptiveLayout(n, spacing, cells, layer_z, options.blend_layers * spacing)
 
 
 def _corners(i0: np.ndarray, j0: np.ndarray, width: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -341,9 +397,10 @@ def node_coordinates(layout: AdaptiveLayout, grid: np.ndarray, heights: np.ndarr
         raise InputError(f"heights must be {layout.n} x {layout.n}, got {heights.shape}")
     n, (i, j, k) = layout.grid_size, np.asarray(grid).T
     surface = bilinear_refine(heights - heights.mean(), 1 << layout.level)
-    fade = blend_weight(k, layout.num_layers, layout.blend_layers)
+    flat_z = layout.layer_z[k]
+    fade = np.clip(1.0 + flat_z / layout.blend_depth, 0.0, 1.0)
     return np.column_stack([i * layout.fine_spacing, j * layout.fine_spacing,
-                            layout.layer_z[k] + fade * surface[i % n, j % n]])
+                            flat_z + fade * surface[i % n, j % n]])
 
 
 def reduced_dofs(grid: np.ndarray, cells: CellSizes) -> int:

@@ -17,12 +17,14 @@ from roughfriction.geometry.adaptive import (
 from roughfriction.geometry.mesh import (
     MIN_JACOBIAN_RATIO,
     blend_layers_needed,
+    blend_weight,
     corner_jacobians,
     interpolation_masters,
     layer_layout,
     mesh_size,
     structured_block,
 )
+from roughfriction.geometry.surface import bilinear_refine
 
 SPACING = 1e-6
 #: gmsh hexahedron corners in dolfinx's tensor-product order (a + 2 b + 4 c).
@@ -34,14 +36,6 @@ def patches(n, seed=0, fraction=0.08, margin=1):
     return dilate(np.random.default_rng(seed).random((n, n)) < fraction, margin)
 
 
-def fine_options(options, level):
-    """Today's options for the 2^level re-gridded surface at the same blend and fine depth."""
-    factor = 2**level
-    return MeshOptions(blend_layers=options.blend_layers * factor,
-                       fine_layers=options.fine_layers * factor, coarsen=options.coarsen,
-                       growth=options.growth, depth=options.depth)
-
-
 def as_sets(grid, hexahedra):
     """Nodes as a set of (i, j, k), cells as a set of sorted corner tuples."""
     nodes = {tuple(node) for node in grid}
@@ -49,20 +43,59 @@ def as_sets(grid, hexahedra):
     return nodes, cells
 
 
-@pytest.mark.parametrize("level", [0, 1, 2])
-@pytest.mark.parametrize("options", [MeshOptions(), MeshOptions(blend_layers=3, fine_layers=1),
-                                     MeshOptions(coarsen=False, growth=2.0)])
-def test_an_all_zone_mask_gives_the_uniformly_refined_block(level, options):
+LAYERINGS = [MeshOptions(), MeshOptions(blend_layers=3, fine_layers=1), MeshOptions(blend_layers=5),
+             MeshOptions(coarsen=False, growth=2.0)]
+
+
+@pytest.mark.parametrize("options", LAYERINGS)
+def test_level_0_is_today_s_block(options):
+    n = 8
+    layout = adaptive_layout(n, SPACING, 0, patches(n), options)
+    layer_z, layer_stride = layer_layout(n, SPACING, options)
+    np.testing.assert_allclose(layout.layer_z, layer_z, rtol=0, atol=1e-18)
+    np.testing.assert_array_equal(layout.cells.layer_stride, layer_stride)
+    grid, hexahedra = adaptive_block(layout.cells)
+    assert as_sets(grid, hexahedra) == as_sets(*structured_block(n, layer_stride))
+    assert reduced_dofs(grid, layout.cells) == mesh_size(n, options)[1]
+
+
+@pytest.mark.parametrize("level", [1, 2, 3])
+@pytest.mark.parametrize("options", LAYERINGS)
+def test_an_all_zone_mask_gives_the_structured_block_of_its_layers(level, options):
     n = 4
     layout = adaptive_layout(n, SPACING, level, np.ones((n, n), bool), options)
     big_n = n * 2**level
-    layer_z, layer_stride = layer_layout(big_n, SPACING / 2**level, fine_options(options, level))
+    grid, hexahedra = adaptive_block(layout.cells)
+    structured = structured_block(big_n, layout.cells.layer_stride)
+    assert as_sets(grid, hexahedra) == as_sets(*structured)
+    # node layer k >= 1 holds its own dofs at the stride of the cell layer under it
+    assert reduced_dofs(grid, layout.cells) == 3 * sum((big_n // s) ** 2
+                                                       for s in layout.cells.layer_stride)
+    # graded to the surface as --refine's meshes: fine_layers layers h / 2^L thick on top
+    thickness = np.diff(layout.layer_z)[::-1]
+    np.testing.assert_allclose(thickness[:options.fine_layers], SPACING / 2**level)
+    assert np.all(thickness >= SPACING / 2**level * (1 - 1e-12))
+
+
+def test_an_all_zone_mask_gives_today_s_block_of_the_re_gridded_surface():
+    """Where the layerings coincide (4x, 4 fine layers, the blend h = 4 layers h / 4 deep),
+    the adaptive block is today's block of the 4x re-gridded bilinear surface."""
+    n, level = 4, 2
+    heights = rough(n, 0.2 * SPACING, seed=8)
+    layout = adaptive_layout(n, SPACING, level, np.ones((n, n), bool),
+                             MeshOptions(fine_layers=4, blend_layers=1))
+    today = MeshOptions(fine_layers=4, blend_layers=4)
+    layer_z, layer_stride = layer_layout(4 * n, SPACING / 4, today)
     np.testing.assert_allclose(layout.layer_z, layer_z, rtol=0, atol=1e-18)
     np.testing.assert_array_equal(layout.cells.layer_stride, layer_stride)
-    assert as_sets(*adaptive_block(layout.cells)) == as_sets(*structured_block(big_n,
-                                                                                layer_stride))
-    grid, _ = adaptive_block(layout.cells)
-    assert reduced_dofs(grid, layout.cells) == mesh_size(big_n, fine_options(options, level))[1]
+    grid, hexahedra = adaptive_block(layout.cells)
+    assert as_sets(grid, hexahedra) == as_sets(*structured_block(4 * n, layer_stride))
+    fine = bilinear_refine(heights, 4)
+    fine -= fine.mean()
+    i, j, k = grid.T
+    expected_z = layer_z[k] + blend_weight(k, len(layer_stride), 4) * fine[i % (4 * n), j % (4 * n)]
+    np.testing.assert_allclose(node_coordinates(layout, grid, heights)[:, 2], expected_z,
+                               rtol=0, atol=1e-18)
 
 
 def test_the_surface_quadtree_is_refined_in_the_zone_and_2_to_1_balanced():
@@ -200,20 +233,23 @@ def test_cell_jacobians_stay_positive_on_a_rough_surface(level):
 
 
 def test_the_blend_zone_has_the_same_depth_in_metres_at_every_level():
-    n, options = 8, MeshOptions(blend_layers=3, fine_layers=4)
+    n, options = 8, MeshOptions(blend_layers=3, fine_layers=2)
     heights = rough(n, 0.3 * SPACING, seed=5)
     zone = patches(n, seed=5)
     for level in range(4):
         layout = adaptive_layout(n, SPACING, level, zone, options)
         assert layout.blend_depth == pytest.approx(3 * SPACING, rel=1e-12)
+        assert np.min(np.abs(layout.layer_z + layout.blend_depth)) < 1e-9 * SPACING  # a node layer
         grid, _ = adaptive_block(layout.cells)
         z = node_coordinates(layout, grid, heights)[:, 2]
         flat = layout.layer_z[grid[:, 2]]
-        deep = flat <= -layout.blend_depth * (1 + 1e-12)
+        deep = flat <= -layout.blend_depth * (1 + 1e-9)
         np.testing.assert_array_equal(z[deep], flat[deep])  # no roughness below it ...
-        # ... and the fine band (4 h) in layers h / 2^L thick
-        thickness = np.diff(layout.layer_z)[::-1][: 4 * 2**level]
-        np.testing.assert_allclose(thickness, SPACING / 2**level)
+        # ... and a linear fade above it, the same at every level (at the own grid's points)
+        own = (grid[~deep, 0] % 2**level == 0) & (grid[~deep, 1] % 2**level == 0)
+        i, j = grid[~deep][own, 0] // 2**level % n, grid[~deep][own, 1] // 2**level % n
+        expected = (1 + flat[~deep][own] / layout.blend_depth) * (heights - heights.mean())[i, j]
+        np.testing.assert_allclose((z - flat)[~deep][own], expected, rtol=1e-12, atol=1e-20)
 
 
 def test_every_level_meshes_the_same_bilinear_surface():
@@ -249,12 +285,11 @@ def test_bad_adaptive_layouts_are_refused(arguments):
 def test_a_small_zone_costs_a_fraction_of_the_uniform_dofs():
     n, level = 16, 2
     zone = patches(n, seed=7, fraction=0.03, margin=1)
-    layout = adaptive_layout(n, SPACING, level, zone, MeshOptions())
-    grid, _ = adaptive_block(layout.cells)
-    adaptive = reduced_dofs(grid, layout.cells)
-    uniform = mesh_size(n * 2**level, fine_options(MeshOptions(), level))[1]
-    own = mesh_size(n, MeshOptions())[1]
-    assert own < adaptive < 0.6 * uniform
+    dofs = {}
+    for name, mask in {"adaptive": zone, "uniform": np.ones((n, n), bool)}.items():
+        layout = adaptive_layout(n, SPACING, level, mask, MeshOptions())
+        dofs[name] = reduced_dofs(adaptive_block(layout.cells)[0], layout.cells)
+    assert mesh_size(n, MeshOptions())[1] < dofs["adaptive"] < 0.6 * dofs["uniform"]
 
 
 def dolfinx_block(layout, heights, comm):
