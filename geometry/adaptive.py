@@ -90,14 +90,23 @@ class CellSizes:
         return i[first], j[first], width[first]
 
 
+#: Offsets of a grid cell's 8 neighbours (edges and corners).
+NEIGHBOURS = ((1, 0), (-1, 0), (0, 1), (0, -1), (1, 1), (1, -1), (-1, 1), (-1, -1))
+
+
+def neighbourhood_max(values: np.ndarray) -> np.ndarray:
+    """Largest value of each cell and its 8 neighbours, periodically."""
+    result = values.copy()
+    for shift in NEIGHBOURS:
+        np.maximum(result, np.roll(values, shift, axis=(0, 1)), out=result)
+    return result
+
+
 def dilate(mask: np.ndarray, margin: int) -> np.ndarray:
     """Periodic dilation of a cell mask by ``margin`` cells in x, y and diagonally [-]."""
     result = np.asarray(mask, dtype=bool)
     for _ in range(margin):
-        grown = result.copy()
-        for shift in ((1, 0), (-1, 0), (0, 1), (0, -1), (1, 1), (1, -1), (-1, 1), (-1, -1)):
-            grown |= np.roll(result, shift, axis=(0, 1))
-        result = grown
+        result = neighbourhood_max(result)
     return result
 
 
@@ -127,31 +136,31 @@ def quadtree_closure(demand: np.ndarray, level: int) -> np.ndarray:
     return result
 
 
-def balanced_levels(zone: np.ndarray, level: int) -> np.ndarray:
-    """Surface quadtree levels: the zone's own cells at ``level``, the rest as coarse as the 2:1
+def balanced_levels(zone: np.ndarray, level: int, zone_level: int = 0) -> np.ndarray:
+    """Surface quadtree levels: the zone's cells at ``level``, the rest as coarse as the 2:1
     balance across edges and corners (periodic) allows.
 
     Parameters
     ----------
     zone : numpy.ndarray
-        Own-grid cells to refine, bool, shape (n, n).
+        Cells to refine, bool, on the grid of level ``zone_level``: shape (n 2^m, n 2^m) for
+        m = zone_level (0: the own grid; the previous level's contact, say, for m = L - 1).
     level : int
         L [-].
+    zone_level : int
+        m <= L [-].
 
     Returns
     -------
     numpy.ndarray
-        Level of the surface cell covering each finest cell, shape (n 2^L, n 2^L), int8.
+        Level of the surface cell covering each finest cell, shape (N, N) (N = n 2^L), int8.
     """
-    factor = 1 << level
+    factor = 1 << (level - zone_level)
     demand = np.repeat(np.repeat(np.asarray(zone, dtype=np.int8) * level, factor, axis=0),
                        factor, axis=1)
     while True:
         levels = quadtree_closure(demand, level)
-        neighbours = levels.copy()
-        for shift in ((1, 0), (-1, 0), (0, 1), (0, -1), (1, 1), (1, -1), (-1, 1), (-1, -1)):
-            np.maximum(neighbours, np.roll(levels, shift, axis=(0, 1)), out=neighbours)
-        demand = np.maximum(levels, neighbours - 1)
+        demand = np.maximum(levels, neighbourhood_max(levels) - 1)
         if np.array_equal(demand, levels):
             return levels
 
@@ -274,17 +283,21 @@ def adaptive_layout(n: int, spacing: float, level: int, zone: np.ndarray,
     level : int
         L: the zone is refined to h / 2^L [-], >= 0.
     zone : numpy.ndarray
-        Own-grid cells to refine, bool, shape (n, n).
+        Cells to refine, bool: own-grid cells, shape (n, n), or cells of a finer level m <= L,
+        shape (n 2^m, n 2^m).
     options : MeshOptions
         Layering (:func:`adaptive_layers`).
     """
-    zone = np.asarray(zone, dtype=bool)
-    if zone.shape != (n, n):
-        raise InputError(f"refinement zone must be {n} x {n} cells, got {zone.shape}")
     if isinstance(level, bool) or int(level) != level or level < 0:
         raise InputError(f"refinement level must be an integer >= 0, got {level!r}")
+    zone = np.asarray(zone, dtype=bool)
+    zone_levels = {n << m: m for m in range(level + 1)}
+    if zone.ndim != 2 or zone.shape[0] != zone.shape[1] or zone.shape[0] not in zone_levels:
+        raise InputError(f"refinement zone must be n 2^m x n 2^m cells with n = {n}, "
+                         f"0 <= m <= {level}; got {zone.shape}")
     layer_z, layer_stride = adaptive_layers(n, spacing, level, options)
-    cells = CellSizes(balanced_levels(zone, level), level, layer_stride)
+    cells = CellSizes(balanced_levels(zone, level, zone_levels[zone.shape[0]]), level,
+                      layer_stride)
     return AdaptiveLayout(n, spacing, cells, layer_z, options.blend_layers * spacing)
 
 

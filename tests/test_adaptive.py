@@ -116,6 +116,16 @@ def test_the_surface_quadtree_is_refined_in_the_zone_and_2_to_1_balanced():
     np.testing.assert_array_equal(levels, levels[first_i, first_j])
 
 
+def test_a_zone_on_a_finer_grid_refines_only_its_cells():
+    """The contact of level 1 marks half cells: level 2 refines them, not their whole own cell."""
+    n = 4
+    zone = np.zeros((2 * n, 2 * n), bool)
+    zone[2, 3] = True  # one h / 2 cell, in own cell (1, 1)
+    levels = adaptive_layout(n, SPACING, 2, zone, MeshOptions()).cells.surface_level
+    assert np.all(levels[4:6, 6:8] == 2) and np.sum(levels == 2) == 4
+    assert levels[4, 4] == 1 and np.all(levels[:, 12:] == 0)  # balanced around it, coarse away
+
+
 def test_each_layer_is_balanced_and_no_finer_than_the_layer_above():
     layout = adaptive_layout(8, SPACING, 2, patches(8, seed=1), MeshOptions())
     cells = layout.cells
@@ -274,7 +284,8 @@ def test_every_level_meshes_the_same_bilinear_surface():
 
 
 @pytest.mark.parametrize("arguments", [
-    {"zone": np.ones((3, 3), bool)}, {"level": -1}, {"level": 1.5}, {"level": True}])
+    {"zone": np.ones((3, 3), bool)}, {"zone": np.ones((16, 16), bool)},
+    {"zone": np.ones((4, 8), bool)}, {"level": -1}, {"level": 1.5}, {"level": True}])
 def test_bad_adaptive_layouts_are_refused(arguments):
     values = {"n": 4, "spacing": SPACING, "level": 1, "zone": np.ones((4, 4), bool),
               "options": MeshOptions()} | arguments
