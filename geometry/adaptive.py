@@ -13,11 +13,12 @@ h / 2^L thick at the top, then two cubic layers per 2:1 level up to the own grid
 layers down to ``max(fine_layers, blend_layers) h``, then today's coarsened levels
 (``geometry.mesh.layer_layout``). The blend zone, where the roughness fades linearly, is
 ``blend_layers h`` deep in metres at every level (a node layer is put at its bottom). At L = 0
-this is today's layout. The cost of global z-layers: outside the zone the top layers hold
-own-grid cells (h wide) as thin as the zone's, aspect ratio up to 2^L : 1 (4:1 at 4x, 8:1 at 8x)
-in the ``fine_layers`` finest layers, 2^(L-1) : 1 in the next two, ...; a few layers of own cells
-(about ``fine_layers + 2 L`` instead of ``max(fine_layers, blend_layers)``) rather than an octree's
-hanging nodes on vertical faces.
+this is today's layout. Why global z-layers: they keep every hanging node on a horizontal face
+(no vertical-face constraints, as an octree would need) and the blend map exact; the cost: the
+band of thin layers (``fine_layers + 2 (L - 1)`` of them, where a 1x block has one or two layers
+h thick) also runs outside the zone, through own-grid cells h wide, of aspect ratio 2^L : 1 in
+the finest layers (4:1 at 4x, 8:1 at 8x), 2^(L-1) : 1 in the next two, ... There the field is
+smooth on the scale h, and flat trilinear cells only stiffen its bending (parasitic shear).
 
 Every level meshes the same continuous surface, the bilinear interpolant of the own-grid heights
 (``geometry.surface.bilinear_refine``), and the blend map z -> z + w(z) Z(x, y) is trilinear in
@@ -222,16 +223,7 @@ def adaptive_layers(n: int, spacing: float, level: int, options: MeshOptions
     ``max(fine_layers, blend_layers) h``, then its coarsened levels, down to the depth H), its
     first layer cut at the band's bottom; a layer is split in two where the blend zone ends.
 
-    Parameters
-    ----------
-    n : int
-        Own-grid cells per side [-].
-    spacing : float
-        Own grid spacing h [m].
-    level : int
-        L [-].
-    options : MeshOptions
-        Layering; ``blend_layers h`` is the blend depth in metres at every level.
+    Parameters n, spacing, level and options as :func:`adaptive_layout`'s.
 
     Returns
     -------
