@@ -55,15 +55,19 @@ def fraction_map():
     return np.where(contact_map(), 0.5, 0.0)
 
 
-def write_run(path, steps=STEPS, converged=True, message=""):
+def normal_maps():
+    """The maps of the end of the preload, with the heights."""
+    return {"surface_heights": HEIGHTS, "contact_normal": contact_map(),
+            "pressure_normal": np.where(contact_map(), 2e9, 0.0),
+            "contact_fraction_normal": fraction_map()}
+
+
+def write_run(path, steps=STEPS, converged=True, message="", maps=None):
     from roughfriction.solver.results import write_hdf5
 
     result = FemResult(records(steps), converged, message, False, {"total_s": 3.0},
                        {"ranks": 2, "linear_solver": "direct"})
-    maps = {"surface_heights": HEIGHTS, "contact_normal": contact_map(),
-            "pressure_normal": np.where(contact_map(), 2e9, 0.0),
-            "contact_fraction_normal": fraction_map()}
-    write_hdf5(path, CASE.inputs(), result, maps)
+    write_hdf5(path, CASE.inputs(), result, normal_maps() if maps is None else maps)
     return path
 
 
