@@ -243,6 +243,18 @@ def cmd_runs(args) -> dict:
     return {"runs": [str(path) for path in cached_results(cases, directory=args.directory)]}
 
 
+def describe_commands(parser: argparse.ArgumentParser) -> None:
+    """Give every (sub)command without a description its one-line help as the description,
+    so that ``roughfriction COMMAND --help`` says what the command does."""
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for choice in action._choices_actions:
+                command = action.choices[choice.dest]
+                if command.description is None:
+                    command.description = choice.help
+                describe_commands(command)
+
+
 def build_parser() -> argparse.ArgumentParser:
     from roughfriction.studies.cache import DEFAULT_RUNS, RUNS_VARIABLE
     from roughfriction.studies.paper import DEFAULT_FEM_N, FEM_N_VARIABLE
@@ -298,16 +310,19 @@ def build_parser() -> argparse.ArgumentParser:
 
     post = commands.add_parser(
         "post", help="read a FEM results file (roughfriction fem --output, or results/runs/): "
-        "summary, steps, junction growth, contact maps")
-    post.add_argument("path", metavar="RUN", help="HDF5 results file")
+        "summary, steps, junction growth, contact maps; --maps writes them as CSV, --plot "
+        "draws the run")
+    post.add_argument("path", metavar="RUN",
+                      help="HDF5 results file (roughfriction fem --output, or results/runs/)")
     post.add_argument("--maps", metavar="DIR",
                       help="also write each surface map as DIR/<name>.csv (N x N, row i at "
                       "x = i h, column j at y = j h; contact and slip flags 0/1, pressure and "
                       "shear in Pa, contact fraction per cell 0..1, heights in m)")
     post.add_argument("--plot", metavar="DIR",
-                      help="also draw the run as PNGs in DIR: contact pressure at the end of "
-                      "the preload and at sliding inception (contact.png) and F_t/F_n against "
-                      "the slide u_x (tangential.png)")
+                      help="also draw the run as PNGs in DIR: contact pressure over the "
+                      "heights at the end of the preload and at sliding inception "
+                      "(<RUN>_contact.png) and F_t/F_n against the slide u_x "
+                      "(<RUN>_tangential.png)")
     post.add_argument("--json", action="store_true", help="one JSON object on stdout")
     post.set_defaults(run=cmd_post)
 
@@ -344,6 +359,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     add_bench_commands(commands.add_parser("bench", help="benchmarks; numbers go to "
                                            "results/bench/"))
+    describe_commands(parser)
     return parser
 
 

@@ -209,6 +209,14 @@ def test_every_option_of_every_subcommand_has_help():
     assert missing == []
 
 
+def test_every_subcommand_help_says_what_it_does():
+    from roughfriction.scripts.cli import build_parser
+
+    undescribed = [" ".join(words) for words, parser in subcommand_parsers(build_parser())
+                   if not (parser.description or "").strip()]
+    assert undescribed == []
+
+
 def test_help_names_real_defaults(capsys):
     from roughfriction.studies.paper import DEFAULT_FEM_N
 
