@@ -373,14 +373,14 @@ def quiet_library_logging() -> None:
     """Keep the FEM stack's INFO logging off stderr: FFCx calls ``logging.basicConfig()`` and
     its JIT compiler sets the root logger to INFO ("INFO:root:running build_ext" and the C
     compiler's command lines). A root handler installed first at WARNING keeps warnings and
-    errors and drops the rest (basicConfig is then a no-op)."""
+    errors and drops the rest (basicConfig is then a no-op); a root that already has a
+    handler (an embedding program's) is left alone."""
     root = logging.getLogger()
     if not root.handlers:
         handler = logging.StreamHandler()
         handler.setLevel(logging.WARNING)
+        handler.setFormatter(logging.Formatter(logging.BASIC_FORMAT))
         root.addHandler(handler)
-    for name in ("ffcx", "UFL", "ufl"):
-        logging.getLogger(name).setLevel(logging.WARNING)
 
 
 def warning_lines(counts: dict) -> list[str]:
@@ -388,8 +388,9 @@ def warning_lines(counts: dict) -> list[str]:
     lines = []
     for (category, filename, lineno), (message, count) in counts.items():
         times = f", {count} times" if count > 1 else ""
-        lines.append(f"roughfriction: warning: {category}: {message} ({Path(filename).name}:"
-                     f"{lineno}){times}")
+        place = Path(filename)
+        lines.append(f"roughfriction: warning: {category}: {message} ({place.parent.name}/"
+                     f"{place.name}:{lineno}){times}")
     return lines
 
 
