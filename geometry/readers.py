@@ -15,7 +15,13 @@ import numpy as np
 from roughfriction.errors import InputError
 from roughfriction.geometry.generate import builtin_names, builtin_surface
 from roughfriction.geometry.statistics import spectral_moments
-from roughfriction.geometry.surface import Surface, crop_square, detrend_plane, fill_missing
+from roughfriction.geometry.surface import (
+    MIN_GRID_POINTS,
+    Surface,
+    crop_square,
+    detrend_plane,
+    fill_missing,
+)
 
 # Length units accepted in strings [m per unit]; both micro signs (U+00B5, U+03BC) are accepted.
 LENGTH_UNITS = {
@@ -232,8 +238,12 @@ def _gridded_heights(
         raise InputError(
             f"{path.name}: a height matrix has no unit; give it with --height-unit, e.g. um"
         )
-    if raw.ndim != 2 or min(raw.shape) < 2:
-        raise InputError(f"{path.name}: expected a 2-D height map, got shape {raw.shape}")
+    if raw.ndim != 2:
+        raise InputError(f"{path.name}: holds a {raw.ndim}-D array of shape {raw.shape}, not a "
+                         "2-D height map (rows along x, columns along y)")
+    if min(raw.shape) < MIN_GRID_POINTS:
+        raise InputError(f"{path.name}: a {raw.shape[0]} x {raw.shape[1]} grid is too small for "
+                         f"a height map (at least {MIN_GRID_POINTS} x {MIN_GRID_POINTS} points)")
     heights = raw.astype(float) * length_unit_scale(height_unit or "m")
     spacing = _size_in_metres(size) / (raw.shape[0] - 1)
     return heights, spacing, spacing
@@ -333,9 +343,29 @@ def _square_pixel_grid(
     if pixels != "resample":
         raise InputError(
             f"{path.name}: pixels are not square ({dx:.6g} m x {dy:.6g} m); "
-            "resample them with --resample-pixels (pixels='resample')"
+            "resample them onto square ones with --resample-pixels"
         )
     return square_pixels(heights, dx, dy)
+
+
+def _refuse_missing(path: Path, heights: np.ndarray, fill: str | None) -> None:
+    """Refuse missing (NaN or unmeasured) heights that ``fill`` cannot or may not replace:
+    none measured, any missing without ``fill``, fewer than 3 measured for a plane."""
+    measured = int(np.count_nonzero(np.isfinite(heights)))
+    missing = heights.size - measured
+    if not missing:
+        return
+    if not measured:
+        raise InputError(f"{path.name}: no height is measured (all {heights.shape[0]} x "
+                         f"{heights.shape[1]} points are NaN or unmeasured); nothing to fill "
+                         "from: check the file")
+    if fill is None:
+        raise InputError(f"surface {path.stem!r}: {missing} missing (NaN or unmeasured) "
+                         f"heights of {heights.size}; fill them with --fill=nearest or "
+                         "--fill=plane")
+    if fill == "plane" and measured < 3:
+        raise InputError(f"{path.name}: --fill=plane needs at least 3 measured heights, got "
+                         f"{measured}; use --fill=nearest")
 
 
 def _refuse_steep(surface: Surface, path: Path) -> Surface:
@@ -432,9 +462,10 @@ def read_surface(
         if square != "crop":
             raise InputError(
                 f"{path.name}: grid {heights.shape[0]} x {heights.shape[1]} is not square; "
-                "crop it with --crop (square='crop')"
+                "use --crop to keep its largest centred square"
             )
         heights = crop_square(heights)
+    _refuse_missing(path, heights, fill)
     if fill is not None:
         heights = fill_missing(heights, fill)
     if detrend:

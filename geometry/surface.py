@@ -14,6 +14,9 @@ import numpy as np
 from roughfriction.errors import InputError
 from scipy import interpolate, ndimage
 
+#: Fewest grid points per side of a surface [-].
+MIN_GRID_POINTS = 4
+
 
 @dataclass(frozen=True, eq=False)
 class Surface:
@@ -41,15 +44,16 @@ class Surface:
         if z.shape[0] != z.shape[1]:
             raise InputError(
                 f"surface {self.name!r}: grid is {z.shape[0]} x {z.shape[1]}, not square "
-                "(crop it to a square first, e.g. the reader's square='crop')"
+                "(crop it to a square first: crop_square, or --crop on the command line)"
             )
-        if z.shape[0] < 4:
-            raise InputError(f"surface {self.name!r}: grid {z.shape} is too small (>= 4 x 4)")
+        if z.shape[0] < MIN_GRID_POINTS:
+            raise InputError(f"surface {self.name!r}: a {z.shape[0]} x {z.shape[1]} grid is too "
+                             f"small (at least {MIN_GRID_POINTS} x {MIN_GRID_POINTS} points)")
         n_bad = int(np.count_nonzero(~np.isfinite(z)))
         if n_bad:
             raise InputError(
-                f"surface {self.name!r}: {n_bad} missing (NaN/inf) heights; "
-                "fill them explicitly (fill='nearest' or 'plane')"
+                f"surface {self.name!r}: {n_bad} missing (NaN/inf) heights; fill them first "
+                "(fill_missing, or --fill on the command line)"
             )
         if not (np.isfinite(self.spacing) and self.spacing > 0):
             raise InputError(f"surface {self.name!r}: grid spacing must be > 0, got {self.spacing}")

@@ -2,23 +2,41 @@
 
 Every subcommand prints a short human-readable table, or with ``--json`` one JSON object on
 stdout (SI units; NaN and infinities become ``null``) so that it can be piped into other tools.
-Exit status: 0 success; 2 an input the user can fix (one line on stderr); 3 a FEM run that did
-not converge (partial results written, one line on stderr); 1 anything else (a bug: traceback).
+Exit status: 0 success; 2 an input the user can fix, or a bad command line (one line on
+stderr); 3 a FEM run that did not converge (partial results written, one line on stderr); 130
+interrupted (Ctrl-C; one line); 1 anything else (a bug: traceback). Warnings are counted and
+summarised on stderr at the end, one line per distinct warning.
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
+import logging
 import math
 import sys
+import warnings
+from pathlib import Path
 
+from roughfriction import __version__
 from roughfriction.errors import ConvergenceError, InputError
 from roughfriction.material import Material
 
 EXIT_INPUT_ERROR = 2
 #: Exit status of a FEM run that did not converge.
 EXIT_NOT_CONVERGED = 3
+#: Exit status after Ctrl-C (128 + SIGINT, as a shell reports it).
+EXIT_INTERRUPTED = 130
+
+
+class OneLineParser(argparse.ArgumentParser):
+    """An argument parser whose errors are one line on stderr (exit 2), naming ``--help``
+    instead of printing the usage block."""
+
+    def error(self, message: str):
+        self.exit(EXIT_INPUT_ERROR,
+                  f"{self.prog}: error: {message} (see {self.prog} --help)\n")
 
 
 def _finite_or_none(value):
@@ -95,12 +113,18 @@ def add_surface_arguments(parser: argparse.ArgumentParser) -> None:
         help="scan length from first to last point, with a unit (e.g. 127um); needed for "
         ".npy and matrix files",
     )
-    group.add_argument("--height-unit", help="unit of the heights (m, mm, um, nm)")
-    group.add_argument("--lateral-unit", help="unit of x-y coordinates in point lists")
+    group.add_argument("--height-unit", metavar="UNIT",
+                       help="unit of the heights (m, mm, um, nm); default m for .npy, um for "
+                       "x-y-z lists (ST400), needed for matrix files; given, it also keeps "
+                       "heights whose RMS slope looks like another unit")
+    group.add_argument("--lateral-unit", metavar="UNIT",
+                       help="unit of the x-y coordinates of x-y-z point lists (default mm, "
+                       "ST400)")
     group.add_argument(
         "--fill",
         choices=["nearest", "plane"],
-        help="fill missing (NaN) heights; without it such files are refused",
+        help="fill missing (NaN or unmeasured) heights with the nearest measured one or the "
+        "least-squares plane; without it such files are refused",
     )
     group.add_argument(
         "--crop", action="store_true", help="crop a non-square grid to its largest centred square"
@@ -115,10 +139,25 @@ def add_surface_arguments(parser: argparse.ArgumentParser) -> None:
     )
 
 
+#: The reader flags (argparse dest -> flag) that apply to files only, with their unset values.
+READER_FLAGS = {"size": ("--size", None), "height_unit": ("--height-unit", None),
+                "lateral_unit": ("--lateral-unit", None), "fill": ("--fill", None),
+                "crop": ("--crop", False), "resample_pixels": ("--resample-pixels", False),
+                "no_detrend": ("--no-detrend", False)}
+
+
 def surface_from_args(args):
-    """Load the surface named on the command line (file or built-in)."""
+    """Load the surface named on the command line (file or built-in); reader flags given with
+    a built-in name are refused by their flag names."""
+    from roughfriction.geometry.generate import builtin_names
     from roughfriction.geometry.readers import load_surface
 
+    if args.surface in builtin_names():
+        given = [flag for dest, (flag, unset) in READER_FLAGS.items()
+                 if getattr(args, dest) != unset]
+        if given:
+            raise InputError(f"{', '.join(given)} apply to surface files, not to the built-in "
+                             f"surface {args.surface!r}")
     return load_surface(
         args.surface,
         size=args.size,
@@ -165,6 +204,10 @@ def cmd_post(args) -> dict:
     record = run_report(run)
     if args.maps:
         record["maps_written"] = " ".join(str(path) for path in write_map_csvs(run, args.maps))
+    if args.plot:
+        from roughfriction.scripts.fem_views import write_run_plots
+
+        record["plots_written"] = " ".join(str(path) for path in write_run_plots(run, args.plot))
     return record
 
 
@@ -200,12 +243,30 @@ def cmd_runs(args) -> dict:
     return {"runs": [str(path) for path in cached_results(cases, directory=args.directory)]}
 
 
+def describe_commands(parser: argparse.ArgumentParser) -> None:
+    """Give every (sub)command without a description its one-line help as the description,
+    so that ``roughfriction COMMAND --help`` says what the command does."""
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for choice in action._choices_actions:
+                command = action.choices[choice.dest]
+                if command.description is None:
+                    command.description = choice.help
+                describe_commands(command)
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    from roughfriction.studies.cache import DEFAULT_RUNS, RUNS_VARIABLE
+    from roughfriction.studies.paper import DEFAULT_FEM_N, FEM_N_VARIABLE
+
+    parser = OneLineParser(
         prog="roughfriction",
         description="Static friction between rough metal surfaces: multi-scale theory and FEM.",
+        epilog="exit status: 0 done, 2 bad input or command line, 3 FEM run not converged, "
+        "130 interrupted",
     )
-    commands = parser.add_subparsers(dest="command", required=True)
+    parser.add_argument("--version", action="version", version=f"roughfriction {__version__}")
+    commands = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
 
     surface = commands.add_parser("surface", help="surface statistics and built-in surfaces")
     surface_commands = surface.add_subparsers(dest="surface_command", required=True)
@@ -249,33 +310,48 @@ def build_parser() -> argparse.ArgumentParser:
 
     post = commands.add_parser(
         "post", help="read a FEM results file (roughfriction fem --output, or results/runs/): "
-        "summary, steps, junction growth, contact maps")
-    post.add_argument("path", metavar="RUN", help="HDF5 results file")
+        "summary, steps, junction growth, contact maps; --maps writes them as CSV, --plot "
+        "draws the run")
+    post.add_argument("path", metavar="RUN",
+                      help="HDF5 results file (roughfriction fem --output, or results/runs/)")
     post.add_argument("--maps", metavar="DIR",
                       help="also write each surface map as DIR/<name>.csv (N x N, row i at "
-                      "x = i h, column j at y = j h; flags 0/1, Pa, m)")
+                      "x = i h, column j at y = j h; contact and slip flags 0/1, pressure and "
+                      "shear in Pa, contact fraction per cell 0..1, heights in m)")
+    post.add_argument("--plot", metavar="DIR",
+                      help="also draw the run as PNGs in DIR: contact pressure over the "
+                      "heights at the end of the preload and at sliding inception "
+                      "(<RUN>_contact.png) and F_t/F_n against the slide u_x "
+                      "(<RUN>_tangential.png)")
     post.add_argument("--json", action="store_true", help="one JSON object on stdout")
     post.set_defaults(run=cmd_post)
 
     figure = commands.add_parser("figure", help="make one of the paper's figures (PNG + CSV)")
-    figure.add_argument("name", help="figNN, 'all', 'runs' (compute every FEM figure's runs) or "
-                        "'claims' (the paper's statements checked against figures/*.csv)")
+    figure.add_argument("name", metavar="NAME",
+                        help="a figure (fig3 ... fig29, written to figures/figNN.png and .csv), "
+                        "'all', 'runs' (compute every FEM figure's runs) or 'claims' (the "
+                        "paper's statements checked against figures/*.csv)")
     figure.add_argument("--n", type=int, metavar="N",
-                        help="FEM figures: surface cells per side of the runs (default "
-                        "$ROUGHFRICTION_FEM_N, else scripts.cases.DEFAULT_FEM_N); runs are kept "
-                        "in the run cache ($ROUGHFRICTION_RUNS, default results/runs)")
+                        help=f"FEM figures: surface cells per side of the runs (default "
+                        f"${FEM_N_VARIABLE}, else {DEFAULT_FEM_N}); runs are kept in the run "
+                        f"cache (${RUNS_VARIABLE}, else {DEFAULT_RUNS})")
     figure.add_argument("--json", action="store_true", help="one JSON object on stdout")
     figure.set_defaults(run=cmd_figure)
 
     runs = commands.add_parser(
-        "runs", help="compute the runs missing from the run cache (results/runs, or "
-        "$ROUGHFRICTION_RUNS) and print their results files; loads of one surface share one "
+        "runs", help=f"compute the runs missing from the run cache (${RUNS_VARIABLE}, else "
+        f"{DEFAULT_RUNS}) and print their results files; loads of one surface share one "
         "normal loading path")
     add_surface_arguments(runs)
-    runs.add_argument("--load", type=positive_float, nargs="+", required=True, metavar="FSTAR")
-    runs.add_argument("--n", type=int, metavar="N", help="surface cells per side")
-    runs.add_argument("--normal-only", action="store_true", help="preload only")
-    runs.add_argument("--directory", help="cache directory")
+    runs.add_argument("--load", type=positive_float, nargs="+", required=True, metavar="FSTAR",
+                      help="one or more dimensionless normal loads F* = F_n / (A_n S_y)")
+    runs.add_argument("--n", type=int, metavar="N",
+                      help="surface cells per side of the FEM grid (default: the surface's "
+                      "points per side; fewer re-grid it over its scan length)")
+    runs.add_argument("--normal-only", action="store_true",
+                      help="preload only (no sliding, no mu_s)")
+    runs.add_argument("--directory", metavar="DIR",
+                      help=f"the run cache (default ${RUNS_VARIABLE}, else {DEFAULT_RUNS})")
     runs.add_argument("--json", action="store_true", help="one JSON object on stdout")
     runs.set_defaults(run=cmd_runs)
 
@@ -283,6 +359,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     add_bench_commands(commands.add_parser("bench", help="benchmarks; numbers go to "
                                            "results/bench/"))
+    describe_commands(parser)
     return parser
 
 
@@ -292,8 +369,62 @@ def is_root_rank() -> bool:
     return mpi is None or mpi.COMM_WORLD.rank == 0
 
 
-def main(argv: list[str] | None = None) -> int:
-    args = build_parser().parse_args(argv)
+def quiet_library_logging() -> None:
+    """Keep the FEM stack's INFO logging off stderr: FFCx calls ``logging.basicConfig()`` and
+    its JIT compiler sets the root logger to INFO ("INFO:root:running build_ext" and the C
+    compiler's command lines). A root handler installed first at WARNING keeps warnings and
+    errors and drops the rest (basicConfig is then a no-op); a root that already has a
+    handler (an embedding program's) is left alone."""
+    root = logging.getLogger()
+    if not root.handlers:
+        handler = logging.StreamHandler()
+        handler.setLevel(logging.WARNING)
+        handler.setFormatter(logging.Formatter(logging.BASIC_FORMAT))
+        root.addHandler(handler)
+
+
+def warning_lines(counts: dict) -> list[str]:
+    """One line per distinct warning (category and place): its first message and its count."""
+    lines = []
+    for (category, filename, lineno), (message, count) in counts.items():
+        times = f", {count} times" if count > 1 else ""
+        place = Path(filename)
+        lines.append(f"roughfriction: warning: {category}: {message} ({place.parent.name}/"
+                     f"{place.name}:{lineno}){times}")
+    return lines
+
+
+#: Warnings counted at every occurrence; the others keep their filters (deprecations stay
+#: hidden).
+COUNTED_WARNINGS = (RuntimeWarning, UserWarning)
+
+
+@contextlib.contextmanager
+def summarised_warnings():
+    """Count the warnings raised inside instead of printing each one, then print
+    :func:`warning_lines` on stderr (rank 0 under MPI), also when leaving by an exception."""
+    counts: dict = {}
+
+    def count(message, category, filename, lineno, file=None, line=None):
+        key = (category.__name__, filename, lineno)
+        first, number = counts.get(key, (str(message), 0))
+        counts[key] = (first, number + 1)
+
+    with warnings.catch_warnings():
+        for category in COUNTED_WARNINGS:  # each occurrence (the default shows one per text)
+            warnings.simplefilter("always", category)
+        warnings.showwarning = count
+        try:
+            yield
+        finally:
+            if is_root_rank():
+                for line in warning_lines(counts):
+                    print(line, file=sys.stderr)
+
+
+def run_command(args) -> int:
+    """Run the parsed command; print its record (rank 0) or its one-line error; the exit
+    status."""
     try:
         record = args.run(args)
     except ConvergenceError as error:
@@ -307,6 +438,19 @@ def main(argv: list[str] | None = None) -> int:
     if is_root_rank():
         emit(record, args.json)
     return 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    """The ``roughfriction`` command; returns the exit status (see the module docstring)."""
+    quiet_library_logging()
+    try:
+        args = build_parser().parse_args(argv)
+        with summarised_warnings():
+            return run_command(args)
+    except KeyboardInterrupt:
+        if is_root_rank():
+            print("roughfriction: interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
 
 
 if __name__ == "__main__":

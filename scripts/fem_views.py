@@ -1,16 +1,22 @@
-"""FEM runs drawn as the paper's Figs. 8–10, 15, 20, 21 and 29: contact maps, patch counts,
-contact area and tangential load along the loading. Values come from the runs' results files
-through ``studies.post``; a run whose preload (or sliding) did not finish gives NaN there."""
+"""FEM runs drawn as the paper's Figs. 8–10, 15, 20, 21 and 29 (contact maps, patch counts,
+contact area and tangential load along the loading), and one run's pictures for
+``roughfriction post RUN --plot DIR``. Values come from the runs' results files through
+``studies.post``; a run whose preload (or sliding) did not finish gives NaN there."""
+
+from pathlib import Path
 
 import numpy as np
+from roughfriction.errors import InputError
 from roughfriction.geometry.generate import builtin_surface
 from roughfriction.geometry.statistics import surface_statistics
 from roughfriction.geometry.surface import Surface
 from roughfriction.material import Material
-from roughfriction.scripts.figures import new_axes
+from roughfriction.scripts.figures import new_axes, save_png
 from roughfriction.studies.post import interference, preload_state, tangential_curve
 
 UM = 1e-6
+NM = 1e-9
+MPA = 1e6
 
 
 def builtin_psi(name: str) -> float:
@@ -84,6 +90,13 @@ def patch_columns(runs) -> dict:
     }
 
 
+def map_extent(n: int, spacing: float) -> tuple:
+    """imshow extent [µm] of an n x n map whose pixel (i, j) is centred on node x_i = i h,
+    y_j = j h (``spacing`` h in m)."""
+    h = spacing / UM
+    return (-h / 2, (n - 0.5) * h) * 2
+
+
 def contact_maps(runs):
     """Contact under the normal preload on the topography, one panel per run (Fig. 8)."""
     fig, axes = new_axes(4.2 * len(runs), 3.6, ncols=len(runs))
@@ -93,8 +106,7 @@ def contact_maps(runs):
                "z_m": heights.ravel()}
     from matplotlib.colors import ListedColormap
 
-    h = runs[0].spacing / UM
-    extent = (-h / 2, (heights.shape[0] - 0.5) * h) * 2  # pixel (i, j) centred on node x_i, y_j
+    extent = map_extent(heights.shape[0], runs[0].spacing)
     for ax, run in zip(np.atleast_1d(axes), runs, strict=True):
         contact = run.maps["contact_normal"]
         ax.imshow(heights.T / UM, origin="lower", extent=extent, cmap="Greys")
@@ -137,3 +149,106 @@ def tangential_curves(runs, normalised: bool):
     ax.set_title(f"Tangential loading, $F^*$ = {runs[0].load_star:g}, {fem_label(runs)}")
     ax.legend(fontsize=7, ncols=2)
     return fig, {key: np.array(values) for key, values in columns.items()}
+
+
+# --- one run's pictures (roughfriction post RUN --plot DIR) ---------------------------------
+
+
+def last_step(run, phase: str) -> int | None:
+    """Index of the run's last step of ``phase`` ("normal" or "tangential"), None without
+    one."""
+    steps = np.flatnonzero(run.steps["phase"] == phase)
+    return int(steps[-1]) if steps.size else None
+
+
+def contact_stages(run) -> list[tuple[str, str]]:
+    """(map phase, panel title) of each contact state the run recorded: the end of the preload
+    and sliding inception (or the last sliding step of a run that stopped short of it)."""
+    steps = run.steps
+    stages = []
+    normal = last_step(run, "normal")
+    if "contact_normal" in run.maps and normal is not None:
+        reached = "End of preload" if preload_state(run) is not None else "Preload (unfinished)"
+        stages.append(("normal", f"{reached}: $F_n$ = {steps['normal_force'][normal]:.3g} N"))
+    sliding = last_step(run, "tangential")
+    if "contact_sliding" in run.maps and sliding is not None:
+        reached = ("Sliding inception" if run.summary.get("mu_s") is not None
+                   else "Last sliding step (no inception)")
+        ratio = steps["tangential_force"][sliding] / steps["normal_force"][sliding]
+        stages.append(("sliding", f"{reached}: $u_x$ = {steps['slide'][sliding] / NM:.4g} nm, "
+                       f"$F_t/F_n$ = {ratio:.3g}"))
+    return stages
+
+
+def run_contact_figure(run):
+    """The contact pressure [MPa] at each recorded contact state (:func:`contact_stages`), one
+    panel each, over the surface heights [µm] in grey, with a colour bar for each."""
+    from matplotlib.colors import Normalize
+
+    stages = contact_stages(run)
+    fig, axes = new_axes(4.2 * len(stages) + 1.8, 4.6, ncols=len(stages))
+    heights = run.maps["surface_heights"] / UM
+    extent = map_extent(heights.shape[0], run.spacing)
+    pressures = [run.maps[f"pressure_{phase}"] / MPA for phase, _ in stages]
+    scale = Normalize(0.0, max(float(np.max(p)) for p in pressures))
+    for ax, (phase, title), pressure in zip(np.atleast_1d(axes), stages, pressures, strict=True):
+        contact = run.maps[f"contact_{phase}"]
+        topography = ax.imshow(heights.T, origin="lower", extent=extent, cmap="Greys",
+                               alpha=0.6)
+        image = ax.imshow(np.ma.masked_where(~contact.T, pressure.T), origin="lower",
+                          extent=extent, cmap="plasma", norm=scale)
+        ax.grid(False)
+        ax.set_xlabel("x (µm)")
+        ax.set_ylabel("y (µm)")
+        area = run.maps.get(f"contact_fraction_{phase}")
+        area_text = f", $A_r/A_n$ = {np.mean(area):.3g}" if area is not None else ""
+        ax.set_title(f"{title}\n{int(contact.sum())} contact nodes{area_text}", fontsize=9)
+    fig.colorbar(image, ax=axes, label="contact pressure $p$ (MPa)", shrink=0.9)
+    fig.colorbar(topography, ax=axes, label="surface height $z$ (µm)", shrink=0.9)
+    fig.suptitle(f"Contact pressure over the surface heights: {run_label(run)}")
+    return fig
+
+
+def run_label(run) -> str:
+    """``G5, F* = 0.155, N = 16`` (surface, load and grid of a run)."""
+    return f"{run.surface_name}, $F^*$ = {run.load_star:g}, N = {run.n}"
+
+
+def run_tangential_figure(run):
+    """F_t/F_n [-] against the slide u_x [nm] from the end of the preload, with mu_s."""
+    curve = tangential_curve(run)
+    fig, ax = new_axes()
+    ax.plot(curve["ux_m"] / NM, curve["Ft_over_Fn"], "o-", ms=3, label="FEM steps")
+    mu_s = run.summary.get("mu_s")
+    if mu_s is not None:
+        ax.axhline(mu_s, color="C3", ls="--", lw=1, label=f"$\\mu_s$ = {mu_s:.3g} (inception)")
+    ax.set_xlabel("slide of the flat $u_x$ (nm)")
+    ax.set_ylabel("$F_t / F_n$ (–)")
+    ax.set_ylim(bottom=0.0)
+    ax.set_title(f"Tangential loading: {run_label(run)}")
+    ax.legend(fontsize=8, loc="lower right")
+    return fig
+
+
+def write_run_plots(run, directory) -> list[Path]:
+    """Draw a run (``roughfriction post RUN --plot DIR``): ``<run>_contact.png`` (contact at
+    the end of the preload and at inception, :func:`run_contact_figure`) and
+    ``<run>_tangential.png`` (:func:`run_tangential_figure`, if the run slid), each written
+    atomically into ``directory``; return the files written.
+
+    Raises
+    ------
+    InputError
+        The run recorded neither a contact state nor a sliding step.
+    """
+    directory = Path(directory)
+    figures = {}
+    if contact_stages(run) and "surface_heights" in run.maps:
+        figures["contact"] = run_contact_figure(run)
+    if len(tangential_curve(run)["ux_m"]) > 1:
+        figures["tangential"] = run_tangential_figure(run)
+    if not figures:
+        raise InputError(f"{run.path}: nothing to draw (no contact state and no sliding step "
+                         "recorded)")
+    return [save_png(fig, directory / f"{run.path.stem}_{name}.png")
+            for name, fig in figures.items()]

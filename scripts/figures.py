@@ -119,6 +119,15 @@ def compute_fem_runs(n: int | None = None, runs_directory=None) -> int:
     return len(cases)
 
 
+def save_png(fig, path: Path) -> Path:
+    """Write ``fig`` as a PNG at ``path`` atomically and close it; return ``path``."""
+    import matplotlib.pyplot as plt
+
+    atomic_write(path, lambda tmp: fig.savefig(tmp, dpi=110, format="png"))
+    plt.close(fig)
+    return path
+
+
 def make_figure(name: str, directory: Path = FIGURE_DIR, n: int | None = None,
                 runs_directory=None) -> Path:
     """Draw figure ``name`` and write its PNG and CSV into ``directory``; return the PNG path.
@@ -126,8 +135,6 @@ def make_figure(name: str, directory: Path = FIGURE_DIR, n: int | None = None,
     FEM figures use the FEM grid ``n`` and the run cache ``runs_directory`` (see
     :func:`fem_runs`); under MPI only rank 0 draws and writes.
     """
-    import matplotlib.pyplot as plt
-
     module = figure_module(name)
     png = Path(directory) / f"{name}.png"
     if hasattr(module, "fem_cases"):
@@ -137,7 +144,6 @@ def make_figure(name: str, directory: Path = FIGURE_DIR, n: int | None = None,
         fig, columns = module.make(runs)
     else:
         fig, columns = module.make()
-    atomic_write(png, lambda tmp: fig.savefig(tmp, dpi=110, format="png"))
-    plt.close(fig)
+    save_png(fig, png)
     write_table(Path(directory) / f"{name}.csv", columns)
     return png

@@ -46,8 +46,9 @@ class RunFile:
         StepRecord field -> array over the converged steps (SI units; "phase" as str;
         ``cuts`` only in files written since it was recorded).
     maps : dict
-        Name -> N x N array ([i, j] at x = i h, y = j h): contact flags (bool), pressures and
-        shear [Pa], ``surface_heights`` [m] when recorded.
+        Name -> N x N array ([i, j] at x = i h, y = j h): contact and slip flags (bool),
+        pressures and shear [Pa], contact fractions per cell [-], ``surface_heights`` [m] when
+        recorded (units: :data:`MAP_UNITS`).
     timings : dict
         Wall times of the phases [s].
     sizes : dict
@@ -267,12 +268,26 @@ def junction_growth(run: RunFile) -> dict:
             "inception": run.summary.get("mu_s") is not None}
 
 
+#: The unit of each non-flag surface map, by its name without the phase suffix.
+MAP_UNITS = {"pressure": "Pa", "shear_x": "Pa", "contact_fraction": "-", "surface_heights": "m"}
+
+
+def map_unit(name: str) -> str:
+    """The unit of map ``name`` (``<map>_<phase>`` or ``surface_heights``), from
+    :data:`MAP_UNITS`; ValueError for a map whose unit is not declared there."""
+    base = name.removesuffix("_normal").removesuffix("_sliding")
+    if base not in MAP_UNITS:
+        raise ValueError(f"map {name!r} has no declared unit (studies.post.MAP_UNITS)")
+    return MAP_UNITS[base]
+
+
 def map_summary(name: str, values: np.ndarray) -> dict:
-    """A few numbers that describe one surface map.
+    """A few numbers that describe one surface map, each in the map's own unit.
 
     Contact and slip flags: nodes set, their fraction, patches (periodic connectivity) and
-    nodes per patch. Pressures and shear [Pa]: max and mean over the nonzero nodes. Heights
-    [m]: min and max.
+    nodes per patch. Contact fractions (per cell, the fraction of its area in contact) [-]:
+    their mean, which is A_r/A_n, the largest, and the cells with any contact. Pressures and
+    shear [Pa]: max and mean over the nonzero nodes. Heights [m]: min and max.
     """
     from roughfriction.solver.results import count_patches
 
@@ -282,8 +297,12 @@ def map_summary(name: str, values: np.ndarray) -> dict:
         patches = count_patches(values)
         return {"nodes": nodes, "fraction": nodes / values.size, "patches": patches,
                 "nodes_per_patch": nodes / patches if patches else None}
-    if name == "surface_heights":
+    unit = map_unit(name)
+    if unit == "m":
         return {"min_m": float(values.min()), "max_m": float(values.max())}
+    if unit == "-":
+        return {"area_ratio": float(values.mean()), "max_cell_fraction": float(values.max()),
+                "cells_in_contact": int(np.count_nonzero(values))}
     loaded = values[values != 0]
     return {"max_Pa": float(np.abs(values).max()),
             "mean_nonzero_Pa": float(loaded.mean()) if loaded.size else 0.0}
@@ -291,7 +310,8 @@ def map_summary(name: str, values: np.ndarray) -> dict:
 
 def write_map_csvs(run: RunFile, directory) -> list[Path]:
     """Write every map as ``DIRECTORY/<name>.csv``: an N x N matrix, row i (x = i h), column j
-    (y = j h); flags as 0/1, pressures and shear in Pa, heights in m. Each file is written to a
+    (y = j h); flags as 0/1, pressures and shear in Pa, contact fractions per cell in 0..1 (-),
+    heights in m. Each file is written to a
     temporary name and renamed.
 
     Returns

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from roughfriction.geometry.generate import builtin_surface
 from roughfriction.material import Material
-from roughfriction.scripts.cli import EXIT_INPUT_ERROR, main
+from roughfriction.scripts.cli import EXIT_INPUT_ERROR, EXIT_INTERRUPTED, main
 
 STATS_KEYS = {"rq", "m0", "m2", "m4", "alpha", "sigma_s", "R", "psi"}
 THEORY_KEYS = {"psi", "mu_s", "Ft_max", "area_ratio_normal", "area_ratio_sliding", "mu_cke",
@@ -101,3 +101,204 @@ def test_theory_commands_import_no_fem_stack():
     )
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert done.stdout.strip().splitlines()[-1] == "[]"
+
+
+# --- issue 54: Ctrl-C, --version, one-line argparse errors, help, messages, noise ------------
+
+
+def one_line(err: str) -> str:
+    """The only line of ``err`` (fails if there are more)."""
+    lines = err.strip().splitlines()
+    assert len(lines) == 1, err
+    return lines[0]
+
+
+@pytest.mark.parametrize("argv", [["figure", "fig3"], ["fem", "G5", "--load", "0.155"],
+                                  ["fem", "G5", "--load", "0.155", "--normal-only"]])
+def test_interrupt_is_one_line_and_exit_130(argv, monkeypatch, capsys):
+    from roughfriction.scripts import fem, figures
+
+    def interrupted(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(figures, "make_figure", interrupted)
+    monkeypatch.setattr(fem, "run_fem", interrupted)
+    assert main(argv) == EXIT_INTERRUPTED == 130
+    captured = capsys.readouterr()
+    assert one_line(captured.err) == "roughfriction: interrupted"
+    assert captured.out == ""
+
+
+@pytest.mark.fem
+def test_ctrl_c_in_a_real_fem_run_exits_130_without_traceback(tmp_path):
+    """SIGINT while the FEM steps: one line, status 130, no results file under its name."""
+    import signal
+
+    from tests.test_cache import ROOT, command_environment, wait_for_line
+
+    output = tmp_path / "run.h5"
+    command = [sys.executable, "-m", "roughfriction.scripts.cli", "fem", "G5", "--n", "16",
+               "--window", "best", "--load", "0.155", "--output", str(output)]
+    process = subprocess.Popen(command, cwd=ROOT, env=command_environment(), text=True,
+                               stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                               preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    try:
+        wait_for_line(process, "FEM G5: N=16", 300)  # meshed, about to step
+        process.send_signal(signal.SIGINT)
+        _, err = process.communicate(timeout=120)
+    finally:
+        if process.poll() is None:
+            process.kill()
+    assert process.returncode == EXIT_INTERRUPTED, err
+    assert "Traceback" not in err and "KeyboardInterrupt" not in err
+    assert err.strip().splitlines()[-1] == "roughfriction: interrupted"
+    assert not output.exists()
+
+
+def test_version(capsys):
+    from roughfriction import __version__
+
+    with pytest.raises(SystemExit) as exit_info:
+        main(["--version"])
+    assert exit_info.value.code == 0
+    assert capsys.readouterr().out.strip() == f"roughfriction {__version__}"
+
+
+@pytest.mark.parametrize(("argv", "message"), [
+    ([], "required: COMMAND"),
+    (["multiscale", "G5"], "required: --load"),
+    (["multiscale", "G5", "--load", "x"], "not a number: 'x'"),
+    (["fem", "G5", "--load", "0.1", "--bogus"], "unrecognized arguments: --bogus"),
+    (["surface", "stats", "G5", "--fill", "cubic"], "invalid choice: 'cubic'"),
+    (["figure"], "required: NAME"),
+    (["bench", "stress", "--n", "x"], "invalid int value"),
+])
+def test_argparse_errors_are_one_line_and_exit_2(argv, message, capsys):
+    with pytest.raises(SystemExit) as exit_info:
+        main(argv)
+    assert exit_info.value.code == EXIT_INPUT_ERROR
+    line = one_line(capsys.readouterr().err)
+    assert line.startswith("roughfriction") and ": error: " in line and message in line
+    assert "--help" in line  # where to read more, instead of the usage block
+
+
+def subcommand_parsers(parser, prefix=("roughfriction",)):
+    """(command words, parser) of every parser under ``parser``, itself included."""
+    import argparse
+
+    yield prefix, parser
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for name, sub in action.choices.items():
+                yield from subcommand_parsers(sub, (*prefix, name))
+
+
+def test_every_option_of_every_subcommand_has_help():
+    import argparse
+
+    from roughfriction.scripts.cli import build_parser
+
+    def described(action):
+        if isinstance(action, argparse._SubParsersAction):  # each command has its help
+            return all(choice.help for choice in action._choices_actions)
+        return isinstance(action, argparse._HelpAction) or bool((action.help or "").strip())
+
+    missing = [f"{' '.join(words)} {action.dest}"
+               for words, parser in subcommand_parsers(build_parser())
+               for action in parser._actions if not described(action)]
+    assert missing == []
+
+
+def test_every_subcommand_help_says_what_it_does():
+    from roughfriction.scripts.cli import build_parser
+
+    undescribed = [" ".join(words) for words, parser in subcommand_parsers(build_parser())
+                   if not (parser.description or "").strip()]
+    assert undescribed == []
+
+
+def test_help_names_real_defaults(capsys):
+    from roughfriction.studies.paper import DEFAULT_FEM_N
+
+    with pytest.raises(SystemExit):
+        main(["figure", "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    assert "scripts.cases" not in text
+    assert f"else {DEFAULT_FEM_N})" in text
+
+
+def write_heights(tmp_path, name, array):
+    path = tmp_path / name
+    np.save(path, array)
+    return ["surface", "stats", str(path), "--size", "15um"]
+
+
+def grid_with_holes():
+    z = np.random.default_rng(2).normal(0.0, 0.1e-6, (16, 20))
+    z[3, 4] = np.nan
+    return z
+
+
+#: Bad surfaces, their argv's extra flags, and what the one-line message must say: the flag to
+#: use, never the Python argument (fill='nearest', square='crop', pixels='resample').
+SURFACE_MESSAGES = {
+    "1 x 1": (np.ones((1, 1)) * 1e-7, [], "1 x 1 grid"),
+    "1 x 16": (np.ones((1, 16)) * 1e-7, [], "1 x 16 grid"),
+    "all NaN": (np.full((16, 16), np.nan), [], "no height is measured"),
+    "all NaN, filled": (np.full((16, 16), np.nan), ["--fill", "nearest"], "no height is measured"),
+    "holes": (grid_with_holes(), ["--crop"], "--fill=nearest or --fill=plane"),
+    "not square": (grid_with_holes(), [], "use --crop"),
+    "built-in with a flag": (None, ["--crop"], "--crop"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(SURFACE_MESSAGES))
+def test_surface_messages_name_the_flags(case, tmp_path, capsys):
+    heights, flags, message = SURFACE_MESSAGES[case]
+    argv = (["surface", "stats", "G5"] if heights is None
+            else write_heights(tmp_path, "z.npy", heights))
+    assert main([*argv, *flags]) == EXIT_INPUT_ERROR
+    line = one_line(capsys.readouterr().err)
+    assert message in line
+    for python_argument in ("fill=", "square=", "pixels=", "(square)", "2-D height map, got"):
+        assert python_argument not in line.replace("--fill=", "")
+
+
+def test_fill_plane_with_too_few_points_says_use_nearest(tmp_path, capsys):
+    z = np.full((16, 16), np.nan)
+    z[0, 0] = z[5, 5] = 1e-7
+    assert main([*write_heights(tmp_path, "z.npy", z), "--fill", "plane"]) == EXIT_INPUT_ERROR
+    assert "--fill=nearest" in one_line(capsys.readouterr().err)
+
+
+def test_warnings_are_counted_into_one_line_each(monkeypatch, capsys):
+    import warnings
+
+    from roughfriction.scripts import cli
+
+    def noisy(args):
+        for k in range(50):
+            np.log(np.zeros(3))  # RuntimeWarning: divide by zero, the same line each time
+            warnings.warn(f"step {k} extrapolated", RuntimeWarning, stacklevel=1)
+        return {"done": True}
+
+    monkeypatch.setattr(cli, "cmd_surface_list", noisy)
+    assert main(["surface", "list"]) == 0
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert len(lines) == 2, lines
+    assert any("divide by zero" in line and "50 times" in line for line in lines)
+    assert any("step 0 extrapolated" in line and "50 times" in line for line in lines)
+    assert all(line.startswith("roughfriction: warning") for line in lines)
+
+
+def test_library_info_logging_is_silenced():
+    """After the CLI has set up, FFCx's basicConfig and the C compiler's INFO:root lines (the
+    JIT sets the root logger to INFO) do not reach stderr; warnings still do."""
+    code = ("import logging; from roughfriction.scripts.cli import main; "
+            "main(['surface', 'list']); import ffcx; "
+            "logging.getLogger().setLevel(logging.INFO); logging.info('running build_ext'); "
+            "logging.getLogger('ffcx').info('compiling'); logging.warning('kept')")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          check=True)
+    assert "running build_ext" not in done.stderr and "compiling" not in done.stderr
+    assert "kept" in done.stderr

@@ -50,14 +50,24 @@ def contact_map():
     return grid
 
 
-def write_run(path, steps=STEPS, converged=True, message=""):
+def fraction_map():
+    """Per cell, the fraction of its area in contact [-]: half of each contact node's cell."""
+    return np.where(contact_map(), 0.5, 0.0)
+
+
+def normal_maps():
+    """The maps of the end of the preload, with the heights."""
+    return {"surface_heights": HEIGHTS, "contact_normal": contact_map(),
+            "pressure_normal": np.where(contact_map(), 2e9, 0.0),
+            "contact_fraction_normal": fraction_map()}
+
+
+def write_run(path, steps=STEPS, converged=True, message="", maps=None):
     from roughfriction.solver.results import write_hdf5
 
     result = FemResult(records(steps), converged, message, False, {"total_s": 3.0},
                        {"ranks": 2, "linear_solver": "direct"})
-    maps = {"surface_heights": HEIGHTS, "contact_normal": contact_map(),
-            "pressure_normal": np.where(contact_map(), 2e9, 0.0)}
-    write_hdf5(path, CASE.inputs(), result, maps)
+    write_hdf5(path, CASE.inputs(), result, normal_maps() if maps is None else maps)
     return path
 
 
@@ -114,12 +124,28 @@ def test_map_summaries_and_csv(run_file, tmp_path):
     assert map_summary("pressure_normal", run.maps["pressure_normal"])["max_Pa"] == 2e9
     written = write_map_csvs(run, tmp_path / "maps")
     assert {path.name for path in written} == {"surface_heights.csv", "contact_normal.csv",
-                                               "pressure_normal.csv"}
+                                               "pressure_normal.csv",
+                                               "contact_fraction_normal.csv"}
     np.testing.assert_array_equal(np.loadtxt(tmp_path / "maps" / "contact_normal.csv",
                                              delimiter=","), contact_map().astype(int))
     np.testing.assert_allclose(np.loadtxt(tmp_path / "maps" / "surface_heights.csv",
                                           delimiter=","), HEIGHTS, rtol=1e-9)
     assert not list((tmp_path / "maps").glob(".*"))
+
+
+def test_each_map_summary_states_its_own_unit(run_file):
+    """Contact fractions are dimensionless, not Pa: their summary is the area ratio they add up
+    to (A_r/A_n, the mean over the cells) and the largest cell fraction."""
+    run = read_run(run_file)
+    fraction = map_summary("contact_fraction_normal", run.maps["contact_fraction_normal"])
+    assert fraction == {"area_ratio": pytest.approx(6 * 0.5 / N**2), "max_cell_fraction": 0.5,
+                        "cells_in_contact": 6}
+    assert map_summary("pressure_normal", run.maps["pressure_normal"]) == {
+        "max_Pa": 2e9, "mean_nonzero_Pa": 2e9}
+    assert set(map_summary("surface_heights", HEIGHTS)) == {"min_m", "max_m"}
+    assert set(map_summary("shear_x_sliding", -np.ones((N, N)))) == {"max_Pa", "mean_nonzero_Pa"}
+    with pytest.raises(ValueError, match="unit"):  # a new map must say its unit first
+        map_summary("temperature_normal", np.ones((N, N)))
 
 
 def test_report_is_json(run_file):
