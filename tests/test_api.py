@@ -128,3 +128,23 @@ def test_the_examples_of_docs_api_md_run(tmp_path, monkeypatch, capsys):
     out = capsys.readouterr().out
     assert out.count("refused:") == 4
     assert (tmp_path / "g5_window.h5").is_file()
+
+
+@pytest.mark.mpi
+@pytest.mark.fem
+def test_run_fem_on_two_ranks_writes_one_file_and_refuses_on_every_rank(tmp_path_factory):
+    """Under mpirun every rank calls run_fem: one results file, the same summary on both
+    ranks, and a refused output raises on both (no rank left waiting)."""
+    from mpi4py import MPI
+
+    comm = MPI.COMM_WORLD
+    assert comm.size == 2, "run under mpirun -n 2"
+    folder = comm.bcast(str(tmp_path_factory.mktemp("api")) if comm.rank == 0 else None)
+    output = Path(folder) / "run.h5"
+    case = rf.fem_case(rf.load_surface("G5"), 0.155, n=8, window="best", normal_only=True)
+    fem = rf.run_fem(case, output, progress=lambda record: None)
+    areas = comm.allgather(fem.result.summary()["area_ratio_normal"])
+    assert areas[0] == areas[1] == rf.read_run(output).summary["area_ratio_normal"]
+    with pytest.raises(rf.InputError, match="exists"):
+        rf.run_fem(case, output)
+    comm.barrier()
