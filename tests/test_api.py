@@ -53,7 +53,7 @@ def test_fem_case_checks_the_load_before_re_gridding(monkeypatch):
         raise AssertionError("re-gridded before the load was checked")
 
     monkeypatch.setattr(api, "surface_on_fem_grid", re_grid)
-    with pytest.raises(rf.InputError, match=r"normal load F\* = 1e\+09 > 10"):
+    with pytest.raises(rf.InputError, match=r"normal load F\* = 1e\+09 > 100"):
         rf.fem_case(rf.load_surface("G5"), 1e9, n=16)
 
 

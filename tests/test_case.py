@@ -8,15 +8,15 @@ from roughfriction.geometry.generate import builtin_names, builtin_surface
 from roughfriction.geometry.surface import Surface
 
 
-@pytest.mark.parametrize("load", [1e9, 1.55e8, MAX_LOAD_STAR * 1.01])
+@pytest.mark.parametrize("load", [1e9, 1.55e8, 155.0, MAX_LOAD_STAR * 1.01])
 def test_an_implausible_load_is_refused_in_one_line(load):
-    """A force in N or a pressure in Pa given as F* is refused, not run to a mu_s of 1e-10."""
-    with pytest.raises(InputError, match=r"normal load F\* = .* > 10") as error:
+    """A pressure in Pa or MPa given as F* is refused, not run to a mu_s of 1e-10."""
+    with pytest.raises(InputError, match=r"normal load F\* = .* > 100") as error:
         Loading(load)
     assert "\n" not in str(error.value)
 
 
-@pytest.mark.parametrize("load", [0.01, 1.86, 2.5, MAX_LOAD_STAR])
+@pytest.mark.parametrize("load", [0.01, 1.86, 2.5, 11.85, MAX_LOAD_STAR])
 def test_the_loads_of_the_paper_and_the_stress_matrix_are_accepted(load):
     assert Loading(load).load_star == load
 

@@ -10,14 +10,14 @@ from roughfriction.scripts.cli import EXIT_INPUT_ERROR, main
 
 
 def test_an_implausible_load_is_refused():
-    with pytest.raises(InputError, match=r"normal load F\* = 1e\+09 > 10"):
+    with pytest.raises(InputError, match=r"normal load F\* = 1e\+09 > 100"):
         evaluate_theory(builtin_surface("G5"), 1e9, Material())
 
 
 def test_the_multiscale_command_exits_2_on_an_implausible_load(capsys):
     assert main(["multiscale", "G5", "--load", "1e9"]) == EXIT_INPUT_ERROR
     err = capsys.readouterr().err.strip()
-    assert "F* = 1e+09 > 10" in err and "\n" not in err
+    assert "F* = 1e+09 > 100" in err and "\n" not in err
 
 
 def test_heights_in_micrometres_taken_as_metres_are_refused():
