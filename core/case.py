@@ -18,6 +18,39 @@ if TYPE_CHECKING:  # the case holds a surface; the core does not import the geom
 LINEAR_SOLVERS = ("auto", "direct", "iterative")
 INTEGRATIONS = ("selective", "full")
 
+#: Largest dimensionless normal load F* = F_n / (A_n S_y) accepted [-]: a mean nominal pressure
+#: of 100 S_y. A plastic surface is in complete contact by the hardness (about 2.8 S_y), and the
+#: elastic verification runs (a sinusoid pressed to 20 times its complete-contact pressure) need
+#: F* = 12; a larger F* is a pressure given in MPa or Pa.
+MAX_LOAD_STAR = 100.0
+#: Largest RMS surface slope accepted [-] (84 degrees). Machined and lapped surfaces have 0.003
+#: to 1.2 (the built-in 63M); heights in micrometres taken as metres give 1e3 and more.
+MAX_RMS_SLOPE = 10.0
+
+
+def check_load_star(load_star: float) -> float:
+    """``load_star`` as a float if it is a plausible F* = F_n / (A_n S_y) [-] (Eq. 10): finite,
+    > 0 and at most :data:`MAX_LOAD_STAR`; else InputError."""
+    try:
+        load_star = float(load_star)
+    except (TypeError, ValueError):
+        raise InputError(f"normal load F* must be a number, got {load_star!r}") from None
+    if not (math.isfinite(load_star) and load_star > 0):
+        raise InputError(f"normal load F* must be > 0, got {load_star}")
+    if load_star > MAX_LOAD_STAR:
+        raise InputError(f"normal load F* = {load_star:g} > {MAX_LOAD_STAR:g}: F* is "
+                         "F_n / (A_n S_y), dimensionless (a mean pressure of F* S_y)")
+    return load_star
+
+
+def check_surface_slope(surface: Surface) -> None:
+    """Refuse a surface whose RMS slope (``Surface.rms_slope``) exceeds :data:`MAX_RMS_SLOPE`:
+    its heights are not in metres, or not on its grid spacing [m]."""
+    slope = surface.rms_slope
+    if not slope <= MAX_RMS_SLOPE:
+        raise InputError(f"surface {surface.name or 'surface'!r}: RMS slope {slope:.3g} > "
+                         f"{MAX_RMS_SLOPE:g}: heights and spacing must both be in metres")
+
 
 @dataclass(frozen=True)
 class MeshOptions:
@@ -79,8 +112,7 @@ class Loading:
     normal_only: bool = False
 
     def __post_init__(self):
-        if not (math.isfinite(self.load_star) and self.load_star > 0):
-            raise InputError(f"normal load F* must be > 0, got {self.load_star}")
+        check_load_star(self.load_star)
 
 
 @dataclass(frozen=True)
@@ -216,6 +248,9 @@ class FemCase:
     material: Material = field(default_factory=Material)
     mesh: MeshOptions = field(default_factory=MeshOptions)
     solver: SolverOptions = field(default_factory=SolverOptions)
+
+    def __post_init__(self):
+        check_surface_slope(self.surface)
 
     @property
     def nominal_area(self) -> float:

@@ -76,6 +76,13 @@ class Surface:
         """Period of the periodically closed surface, n h [m] (the FEM block's side)."""
         return self.n * self.spacing
 
+    @property
+    def rms_slope(self) -> float:
+        """RMS slope sqrt(m2_x + m2_y) from forward differences along x and y [-] (Eq. 16)."""
+        z = self.heights
+        mean_square = np.mean(np.diff(z, axis=0) ** 2) + np.mean(np.diff(z, axis=1) ** 2)
+        return float(np.sqrt(mean_square)) / self.spacing
+
     def digest(self) -> str:
         """SHA-256 of the heights and spacing: keys caches of results computed from this surface."""
         h = hashlib.sha256()

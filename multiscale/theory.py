@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from dataclasses import asdict, dataclass
 
+from roughfriction.case import check_load_star, check_surface_slope
 from roughfriction.geometry.statistics import surface_statistics
 from roughfriction.geometry.surface import Surface
 from roughfriction.material import Material
@@ -67,8 +68,11 @@ def evaluate_theory(
     """Multi-scale, CKE and LET static friction of ``surface`` at the load F* [-].
 
     ``scales`` and ``psi`` may be passed in when the same surface is evaluated at many loads
-    (they depend on the surface only).
+    (they depend on the surface only). A load or surface the FEM would refuse is refused here
+    too (``roughfriction.case.check_load_star`` and ``check_surface_slope``).
     """
+    check_load_star(load_star)
+    check_surface_slope(surface)
     scales = scale_decomposition(surface) if scales is None else scales
     psi = surface_statistics(surface, material).psi if psi is None else psi
     friction = static_friction(scales, load_star, material, variant=variant)

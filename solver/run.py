@@ -15,7 +15,13 @@ import numpy as np
 from mpi4py import MPI
 from roughfriction.case import FemCase, Loading, MeshOptions
 from roughfriction.errors import InputError
-from roughfriction.geometry.mesh import Block, build_block, estimated_memory_gb, mesh_size
+from roughfriction.geometry.mesh import (
+    Block,
+    blend_layers_needed,
+    build_block,
+    estimated_memory_gb,
+    mesh_size,
+)
 from roughfriction.solver.contact import ContactResponse, RigidFlat
 from roughfriction.solver.equilibrium import Equilibrium
 from roughfriction.solver.fields import FieldWriter
@@ -83,6 +89,21 @@ def stderr_progress(comm):
         if comm.rank == 0:
             print(record, file=sys.stderr, flush=True)
     return progress
+
+
+def with_blend_layers_needed(case: FemCase, progress) -> FemCase:
+    """The case with at least the blend layers its surface's deepest valley needs
+    (:func:`geometry.mesh.blend_layers_needed`; the case's own count if that is more). A raised
+    count is stated through ``progress`` as a line of text."""
+    heights, spacing = case.surface.heights, case.surface.spacing
+    needed = blend_layers_needed(heights, spacing)
+    if needed <= case.mesh.blend_layers:
+        return case
+    valley = float(heights.mean() - heights.min())
+    progress(f"note: {needed} blend layers instead of {case.mesh.blend_layers}: the deepest "
+             f"valley, {valley:.3g} m ({valley / spacing:.3g} grid spacings) below the mean "
+             "plane, would invert cells under fewer")
+    return replace(case, mesh=replace(case.mesh, blend_layers=needed))
 
 
 def surface_contact(solid: Solid, block: Block, case: FemCase) -> RigidFlat:
@@ -156,7 +177,9 @@ def run_loads(case: FemCase, loads: Sequence[float], comm: MPI.Comm = MPI.COMM_W
     Parameters
     ----------
     case : FemCase
-        Surface, material, mesh, solver options and ``normal_only``; its load is ignored.
+        Surface, material, mesh, solver options and ``normal_only``; its load is ignored. The
+        mesh takes at least the blend layers the surface needs (:func:`with_blend_layers_needed`,
+        recorded as ``sizes["blend_layers"]``).
     loads : sequence of float
         Dimensionless normal loads F* [-].
     comm : mpi4py.MPI.Comm
@@ -179,6 +202,7 @@ def run_loads(case: FemCase, loads: Sequence[float], comm: MPI.Comm = MPI.COMM_W
     """
     progress = progress or stderr_progress(comm)
     started = time.perf_counter()
+    case = with_blend_layers_needed(case, progress)
     surface = case.surface
     check_memory(surface.n, case.mesh, comm)
     block = build_block(surface.heights, surface.spacing, case.mesh, comm)
@@ -190,6 +214,7 @@ def run_loads(case: FemCase, loads: Sequence[float], comm: MPI.Comm = MPI.COMM_W
         "cells": block.mesh.topology.index_map(3).size_global,
         "grid_size": block.n,
         "layers": block.num_layers,
+        "blend_layers": case.mesh.blend_layers,
         "depth_m": block.depth,
         "reduced_dofs": 3 * reduction.num_reduced_global,
         "linear_solver": equilibrium.linear_solver.method,

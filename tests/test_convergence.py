@@ -11,7 +11,7 @@ from roughfriction.case import SolverOptions
 from roughfriction.geometry.generate import builtin_surface
 from roughfriction.geometry.surface import surface_on_fem_grid
 from roughfriction.material import Material
-from roughfriction.studies.batch import NOT_IN_CACHE, BatchResult, batch_groups, csv_text
+from roughfriction.studies.batch import NOT_IN_CACHE, batch_groups, csv_text
 from roughfriction.studies.convergence import (
     CASES,
     SINUSOID_SLOPE,
@@ -237,14 +237,23 @@ def test_plot_marks_the_chosen_defaults(tmp_path):
     assert (tmp_path / "error.png").read_bytes()[:4] == b"\x89PNG"
 
 
-def test_plot_survives_a_case_without_any_finite_error(tmp_path):
-    rows = synthetic_rows({label: None for label in MU})
-    plot_error(rows, tmp_path / "error.png")
-    assert (tmp_path / "error.png").stat().st_size > 0
+def test_a_case_without_any_finite_error_gets_a_labelled_empty_panel(tmp_path, monkeypatch):
+    """The G5 runs all failed (no finite error): their panel says so and draws no front; the
+    sinusoid's panel beside it still draws its points and front."""
+    import matplotlib.pyplot as plt
 
-
-def test_a_run_that_did_not_start_keeps_its_message():
-    assert BatchResult(None, "inverted cell").error == "inverted cell"
+    drawn = []
+    monkeypatch.setattr(plt, "close", drawn.append)
+    plot_error(synthetic_rows({label: None for label in MU}), tmp_path / "error.png")
+    panels = {ax.get_title(): ax for ax in drawn[0].axes if ax.get_visible()}
+    empty, sine = panels[G5_LOW.label], panels[SINE.label]
+    assert [text.get_text() for text in empty.texts] == ["no run with a finite error"]
+    assert not empty.lines and not empty.collections
+    assert "no run with a finite error" not in [text.get_text() for text in sine.texts]
+    assert len(sine.lines) == 1 and sine.collections  # the front, the points
+    assert (tmp_path / "error.png").read_bytes()[:4] == b"\x89PNG"
+    monkeypatch.undo()
+    plt.close(drawn[0])
 
 
 # --- end to end ------------------------------------------------------------------------------

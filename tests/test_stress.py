@@ -373,8 +373,9 @@ def rough_surface(name, seed=7):
 @pytest.mark.fem
 def test_tiny_stress_matrix_end_to_end(tmp_path):
     """A rough 8 x 8 surface at two loads (one group), penalty x10, a run stopped by its
-    step limit, a surface whose mesh inverts, a measured surface that is missing: the runs
-    converge, the rest fail loudly with their reasons, nothing fails silently."""
+    step limit, a spiky surface (meshed with the blend layers its valley needs), a measured
+    surface that is missing: the runs converge, the rest fail loudly with their reasons,
+    nothing fails silently."""
     from dataclasses import replace
 
     from mpi4py import MPI
@@ -404,8 +405,7 @@ def test_tiny_stress_matrix_end_to_end(tmp_path):
     limit = outcome["limited", 0.155, 1.0]
     assert limit["outcome"] == FAILED and "step limit" in limit["message"]
     assert limit["mu_s"] is None and limit["converged"] is False
-    mesh = outcome["spiky", 0.155, 1.0]
-    assert mesh["outcome"] == FAILED and mesh["message"]
+    assert outcome["spiky", 0.155, 1.0]["outcome"] in (DIRECT, CUT)
     assert outcome["missing", 0.155, 1.0]["message"] == "measured surface not available"
     assert outcome_counts(rows)[SILENT] == 0
 

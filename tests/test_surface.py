@@ -27,6 +27,16 @@ def tilted_plane(shape):
 # --- Surface validation -------------------------------------------------------------------------
 
 
+def test_rms_slope_of_a_plane_is_its_gradient():
+    """Forward differences of a plane are exact: the RMS slope is |grad z| [-]."""
+    spacing = 2e-6
+    i, j = np.indices((8, 8), dtype=float)
+    surface = Surface(spacing * (0.3 * i - 0.4 * j), spacing)
+    assert surface.rms_slope == pytest.approx(0.5)
+
+
+
+
 @pytest.mark.parametrize(
     ("heights", "message"),
     [
