@@ -172,8 +172,8 @@ def run_fem(args) -> dict:
     from mpi4py import MPI
     from roughfriction.geometry.statistics import surface_statistics
     from roughfriction.scripts.cli import surface_from_args
-    from roughfriction.solver.results import save_run
     from roughfriction.solver.run import run
+    from roughfriction.studies.results_file import save_run
 
     comm = MPI.COMM_WORLD
     case = case_from_args(args, surface_from_args(args), comm)

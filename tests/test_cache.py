@@ -97,7 +97,7 @@ def test_physics_version_follows_the_physics_sources(tmp_path):
             "roughfriction.geometry.surface", "roughfriction.material"} <= set(sources)
     assert not set(sources) & {"roughfriction.studies.cache", "roughfriction.scripts.fem",
                                "roughfriction.studies.post", "roughfriction.geometry.readers",
-                               "roughfriction.solver.fields"}
+                               "roughfriction.solver.fields", "roughfriction.studies.results_file"}
     copies = copy_physics_sources(tmp_path)
     assert physics_version(copies) == PHYSICS  # contents, not place or git
     contact = copies["roughfriction.solver.contact"]
@@ -108,6 +108,15 @@ def test_physics_version_follows_the_physics_sources(tmp_path):
     changed = physics_version(copies)
     assert changed != PHYSICS
     assert run_key(rough_case(), changed) != run_key(rough_case(), PHYSICS)
+
+
+def test_the_physics_does_no_file_output_or_provenance():
+    """Writing results and asking git for the revision (studies/results_file.py) are outside
+    the physics key: changing the writer keeps the cached runs."""
+    for name, path in physics_sources().items():
+        code = path.read_text()
+        for io in ("import h5py", "import subprocess", "git"):
+            assert io not in code, f"{name} holds output or provenance ({io!r})"
 
 
 # --- reuse and grouping, with a stand-in for the FEM -----------------------------------------
