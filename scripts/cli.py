@@ -15,6 +15,7 @@ import sys
 
 from roughfriction.errors import ConvergenceError, InputError
 from roughfriction.material import Material
+from roughfriction.scripts.surface_args import surface_from_args
 
 EXIT_INPUT_ERROR = 2
 #: Exit status of a FEM run that did not converge.
@@ -112,22 +113,6 @@ def add_surface_arguments(parser: argparse.ArgumentParser) -> None:
     )
     group.add_argument(
         "--no-detrend", action="store_true", help="keep the least-squares plane of the data"
-    )
-
-
-def surface_from_args(args):
-    """Load the surface named on the command line (file or built-in)."""
-    from roughfriction.geometry.readers import load_surface
-
-    return load_surface(
-        args.surface,
-        size=args.size,
-        height_unit=args.height_unit,
-        lateral_unit=args.lateral_unit,
-        fill=args.fill,
-        square="crop" if args.crop else None,
-        pixels="resample" if args.resample_pixels else None,
-        detrend=not args.no_detrend,
     )
 
 

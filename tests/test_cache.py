@@ -1,18 +1,16 @@
 """Run cache: keys, reuse, grouping, entries written one by one, and a run killed mid-way."""
 
 import json
-import os
-import selectors
 import signal
 import subprocess
 import sys
-import time
 import types
 from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 import pytest
+from commands import command_environment, wait_for_line
 from roughfriction.case import FemCase, Loading, SolverOptions
 from roughfriction.errors import InputError
 from roughfriction.geometry.surface import Surface
@@ -43,7 +41,7 @@ def rough_case(load=0.155, normal_only=False, seed=3, name="G-test", **solver):
 # --- keys ------------------------------------------------------------------------------------
 
 def test_key_is_the_same_in_another_process():
-    code = ("from tests.test_cache import rough_case; "
+    code = ("import sys; sys.path.insert(0, 'tests'); from test_cache import rough_case; "
             "from roughfriction.studies.cache import run_key, physics_version; "
             "print(run_key(rough_case(), physics_version()))")
     other = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True,
@@ -397,30 +395,6 @@ def test_progress_lines_name_the_run_and_the_ratio():
 
 
 # --- real FEM runs ----------------------------------------------------------------------------
-
-def command_environment() -> dict:
-    """This environment without an MPI launcher's variables (the child is a singleton)."""
-    launcher = ("OMPI_", "PMIX_", "PMI_", "OPAL_", "HYDRA_")
-    env = {key: value for key, value in os.environ.items() if not key.startswith(launcher)}
-    env.update(OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
-               OMP_NUM_THREADS="1", OPENBLAS_NUM_THREADS="1")
-    return env
-
-
-def wait_for_line(process, text: str, seconds: float) -> str:
-    """Read the child's stderr until a line containing ``text``; fail after ``seconds``."""
-    selector = selectors.DefaultSelector()
-    selector.register(process.stderr, selectors.EVENT_READ)
-    deadline = time.monotonic() + seconds
-    while time.monotonic() < deadline:
-        if selector.select(timeout=1.0):
-            line = process.stderr.readline()
-            if not line:
-                break
-            if text in line:
-                return line
-    pytest.fail(f"no line with {text!r} on the child's stderr within {seconds} s")
-
 
 @pytest.mark.fem
 def test_a_killed_run_leaves_no_entry_and_a_rerun_completes(tmp_path):
