@@ -254,7 +254,6 @@ def run_fem(args) -> dict:
     from roughfriction.geometry.statistics import surface_statistics
     from roughfriction.scripts.surface_args import surface_from_args
     from roughfriction.solver.run import run
-    from roughfriction.studies.results_file import save_run
 
     comm = MPI.COMM_WORLD
     case = case_from_args(args, surface_from_args(args), comm)
@@ -264,22 +263,30 @@ def run_fem(args) -> dict:
     meshed = {"psi_meshed": surface_statistics(case.surface, case.material).psi}
     outcome = run(case, comm, xdmf_directory=outputs.fields)
     if not args.refine:
-        save_run(output, case, outcome, comm, extra=meshed)
-        _check_converged(outcome, output)
+        _save(output, case, outcome, comm, meshed)
         summary = outcome.result.summary()
         _warn_unresolved(summary, comm)
         return {**summary, **meshed}
 
-    save_run(outputs.coarse, case, outcome, comm, extra=meshed)
-    _check_converged(outcome, outputs.coarse)
+    _save(outputs.coarse, case, outcome, comm, meshed)
     fine_case = next_mesh(case)
     fine = run(fine_case, comm)
     summary = fine.result.summary()
     estimate = discretisation_error(outcome.result.summary(), summary)
-    save_run(output, fine_case, fine, comm, extra={**estimate, **meshed})
-    _check_converged(fine, output)
+    _save(output, fine_case, fine, comm, {**estimate, **meshed})
     _warn_unresolved(summary, comm)
     return {**summary, **estimate, **meshed}
+
+
+def _save(output: Path, case: FemCase, fem_run, comm, extra: dict) -> None:
+    """Write the run's results file (``extra``: added to its summary), name it on stderr
+    (rank 0), and refuse an unconverged run (:func:`_check_converged`)."""
+    from roughfriction.studies.results_file import save_run
+
+    save_run(output, case, fem_run, comm, extra=extra)
+    if comm.rank == 0:
+        print(f"results: {output}", file=sys.stderr)
+    _check_converged(fem_run, output)
 
 
 def unresolved_warning(summary: dict) -> str | None:
