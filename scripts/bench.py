@@ -119,7 +119,7 @@ def cmd_bench_profile(args) -> dict:
     from mpi4py import MPI
     from roughfriction.studies.bench_fem import profile_case
 
-    profile, path = profile_case(args.surface, args.load, args.n, MPI.COMM_WORLD)
+    profile, path = profile_case(args.surface, args.load, args.n, MPI.COMM_WORLD, BENCH_DIR)
     record = {key: profile[key] for key in ("wall_s", "newton_iterations", "cut_steps", "mu_s")}
     for phase, row in profile["phases"].items():
         record[f"{phase} [s]"] = row["seconds"]

@@ -100,10 +100,12 @@ def read_config(path: str | None) -> dict:
 
 def case_from_args(args, surface: Surface, comm=None) -> FemCase:
     """Build the FemCase from flags over the case file; with ``comm`` (the run's
-    communicator), refuse an ``--n`` whose run would not fit in memory before re-gridding."""
+    communicator), a case file that one rank cannot read stops every rank, and an ``--n``
+    whose run would not fit in memory is refused before re-gridding."""
     if comm is not None:
         from roughfriction.solver.run import check_memory
-    config = read_config(args.config)
+    config = (read_config(args.config) if comm is None
+              else agreed(comm, lambda: read_config(args.config)))
 
     def setting(name):
         flag = getattr(args, name)
@@ -256,7 +258,7 @@ def run_fem(args) -> dict:
     from roughfriction.solver.run import run
 
     comm = MPI.COMM_WORLD
-    case = case_from_args(args, surface_from_args(args), comm)
+    case = case_from_args(args, agreed(comm, lambda: surface_from_args(args)), comm)
     outputs = FemOutputs.from_args(args, case)
     agreed(comm, lambda: outputs.check(args.overwrite))
     output = outputs.results

@@ -163,10 +163,11 @@ def path_errors(n: int, ranks: int, cases=HEADLINE_CASES, factor: float = PATH_F
     return rows
 
 
-def profile_case(surface: str, load: float, n: int, comm) -> tuple[dict, Path]:
+def profile_case(surface: str, load: float, n: int, comm,
+                 directory: Path = BENCH_DIR) -> tuple[dict, Path]:
     """Profile one figure case (:func:`studies.paper.fem_case`) on every rank of ``comm``
     (:func:`studies.profile.profile_run`) and write the profile, with the case and its summary,
-    as ``profile_<case_stem>.json`` (rank 0); return it and its path.
+    as ``directory/profile_<case_stem>.json`` (rank 0); return it and its path.
 
     Raises
     ------
@@ -183,7 +184,7 @@ def profile_case(surface: str, load: float, n: int, comm) -> tuple[dict, Path]:
     profile |= {"case": {"surface": surface, "load_star": load, "n": n, "ranks": comm.size},
                 **{key: summary[key] for key in ("mu_s", "newton_iterations", "steps",
                                                  "cut_steps", "converged")}}
-    path = BENCH_DIR / f"profile_{case_stem(surface, load, n, comm.size)}.json"
+    path = Path(directory) / f"profile_{case_stem(surface, load, n, comm.size)}.json"
     if comm.rank == 0:
         atomic_write(path, lambda tmp: Path(tmp).write_text(json.dumps(profile, indent=1)))
     if not summary["converged"]:

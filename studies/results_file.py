@@ -79,11 +79,13 @@ def _write_hdf5(path, inputs: dict, result: FemResult, summary: dict, maps: dict
                 note: str) -> None:
     import h5py
 
+    # Provenance first: importing the FEM stack while the file is open leaves it locked.
+    versions, revision = package_versions(), git_revision()
     with h5py.File(path, "w") as h5:
         h5.attrs["inputs"] = json.dumps(inputs)
         h5.attrs["summary"] = json.dumps(summary)
-        h5.attrs["versions"] = json.dumps(package_versions())
-        h5.attrs["git"] = git_revision()
+        h5.attrs["versions"] = json.dumps(versions)
+        h5.attrs["git"] = revision
         h5.attrs["converged"] = result.converged
         h5.attrs["message"] = result.message
         if note:
