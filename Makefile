@@ -108,7 +108,7 @@ bench-fem: setup
 	@$(VENV)/bin/roughfriction bench fem --n $(BENCH_N) --ranks $(NP) --case $(BENCH_CASES)
 	@mkdir -p docs/bench && cp results/bench/fem.csv docs/bench/
 
-# The load path's error (scripts/bench_fem.py): the headline cases on the default path and on a
+# The load path's error (studies/bench_fem.py): the headline cases on the default path and on a
 # 4x finer one (largest preload and sliding increments / 4), at N = 64 (`PATH_N=32` is quicker).
 PATH_N ?= 64
 bench-path: setup

@@ -1,93 +1,38 @@
-"""Benchmarks: numbers (time, iterations, result) written to ``results/bench/``, not timed tests."""
+"""``roughfriction bench ...``: the command-line wiring of the benchmarks, whose orchestration
+lives in studies/ (:mod:`studies.bench_multiscale`, :mod:`studies.bench_fem`,
+:mod:`studies.convergence`, :mod:`studies.stress`). Numbers go to ``results/bench/``; they are
+not timed tests."""
 
 from __future__ import annotations
 
-import platform
-import time
 from pathlib import Path
 
-import numpy as np
-from roughfriction.geometry.generate import builtin_surface
-from roughfriction.material import Material
-from roughfriction.multiscale.friction import static_friction
-from roughfriction.multiscale.scales import scale_decomposition
-from roughfriction.scripts.figures import write_table
-from roughfriction.studies.paper import (
-    GAUSSIAN_SURFACES,
-    LOAD_SWEEP,
-    LOAD_SWEEP_SURFACES,
-    PSI_SWEEP_LOADS,
-)
-
-BENCH_DIR = Path("results/bench")
+from roughfriction.errors import InputError
+from roughfriction.studies.batch import BENCH_DIR
 
 
-def _median_seconds(function, repeats: int) -> tuple[float, object]:
-    """Median wall time [s] of ``repeats`` calls, and the last return value."""
-    times = []
-    for _ in range(repeats):
-        start = time.perf_counter()
-        value = function()
-        times.append(time.perf_counter() - start)
-    return float(np.median(times)), value
-
-
-def bench_multiscale(repeats: int = 7) -> dict:
-    """Time the FFT decomposition and each multi-scale evaluation of Figs. 22–28.
-
-    Writes ``results/bench/multiscale.csv`` (one row per surface and load: median time of
-    ``repeats`` evaluations [ms], load iterations, mu_s) and returns a summary: median and
-    maximum time per evaluation and the time of all theory curves of Figs. 22–28 (9 surfaces x 4
-    loads and 3 surfaces x 10 loads, FFTs included, one pass).
-    """
-    material = Material()
-    cases = [(s, f) for s in GAUSSIAN_SURFACES for f in PSI_SWEEP_LOADS]
-    cases += [(s, f) for s in LOAD_SWEEP_SURFACES for f in LOAD_SWEEP]
-    surfaces = {name: builtin_surface(name) for name, _ in cases}
-
-    fft_s, _ = _median_seconds(lambda: scale_decomposition(surfaces["G5"]), repeats)
-    scales = {name: scale_decomposition(s) for name, s in surfaces.items()}
-    rows = {"surface": [], "load_star": [], "time_ms": [], "iterations": [], "mu_s": []}
-    for name, load in cases:
-        seconds, result = _median_seconds(
-            lambda n=name, f=load: static_friction(scales[n], f, material), repeats
-        )
-        for key, value in zip(rows, (name, load, 1e3 * seconds, result.iterations, result.mu_s),
-                              strict=True):
-            rows[key].append(value)
-
-    start = time.perf_counter()
-    for name, load in cases:
-        static_friction(scale_decomposition(surfaces[name]), load, material)
-    all_curves_s = time.perf_counter() - start
-
-    BENCH_DIR.mkdir(parents=True, exist_ok=True)
-    write_table(BENCH_DIR / "multiscale.csv", {k: np.array(v) for k, v in rows.items()})
-    times = np.array(rows["time_ms"])
-    return {
-        "machine": f"{platform.processor() or platform.machine()}, {platform.python_version()}",
-        "evaluations": len(cases),
-        "fft_decomposition_ms": 1e3 * fft_s,
-        "evaluation_median_ms": float(np.median(times)),
-        "evaluation_max_ms": float(times.max()),
-        "all_curves_s": all_curves_s,
-        "csv": str(BENCH_DIR / "multiscale.csv"),
-    }
+def parse_case(text: str) -> tuple[str, float]:
+    """'SURFACE:LOAD' (e.g. 'G5:0.155') as (surface, F*)."""
+    surface, _, load = text.partition(":")
+    try:
+        return surface, float(load)
+    except ValueError:
+        raise InputError(f"a benchmark case is SURFACE:LOAD, e.g. G5:0.155, got {text!r}") from None
 
 
 def add_bench_commands(bench) -> None:
     """``roughfriction bench multiscale|fem|path|error|stress|profile`` under the ``bench``
     sub-parser."""
-    from roughfriction.scripts.bench_fem import DEFAULT_SIZES as FEM_SIZES
-    from roughfriction.scripts.bench_fem import HEADLINE_CASES as FEM_CASES
     from roughfriction.studies import convergence
+    from roughfriction.studies.bench_fem import DEFAULT_SIZES as FEM_SIZES
+    from roughfriction.studies.bench_fem import HEADLINE_CASES as FEM_CASES
     from roughfriction.studies.paper import DEFAULT_FEM_N
 
     headline = [f"{surface}:{load:g}" for surface, load in FEM_CASES]
     kinds = bench.add_subparsers(dest="bench_command", required=True)
     multiscale = kinds.add_parser("multiscale", help="time the theory over Figs. 22-28's cases "
                                   f"-> {BENCH_DIR / 'multiscale.csv'}")
-    multiscale.set_defaults(run=lambda args: bench_multiscale())
+    multiscale.set_defaults(run=cmd_bench_multiscale)
 
     fem = kinds.add_parser("fem", help="FEM run time and memory per N, each run under mpirun "
                            f"-> {BENCH_DIR / 'fem.csv'}")
@@ -145,51 +90,36 @@ def add_bench_commands(bench) -> None:
         parser.add_argument("--json", action="store_true", help="one JSON object on stdout")
 
 
+def cmd_bench_multiscale(args) -> dict:
+    """Theory timings (:func:`roughfriction.studies.bench_multiscale.bench_multiscale`)."""
+    from roughfriction.studies.bench_multiscale import bench_multiscale
+
+    return bench_multiscale()
+
+
 def cmd_bench_fem(args) -> dict:
-    """FEM benchmark rows (:mod:`roughfriction.scripts.bench_fem`)."""
-    from roughfriction.scripts.bench_fem import BENCH_DIR as FEM_DIR
-    from roughfriction.scripts.bench_fem import benchmark_sizes, parse_case
+    """FEM benchmark rows (:mod:`roughfriction.studies.bench_fem`)."""
+    from roughfriction.studies.bench_fem import benchmark_sizes
 
     cases = [parse_case(text) for text in args.case]
-    return {"runs": benchmark_sizes(args.n, args.ranks, cases), "csv": str(FEM_DIR / "fem.csv")}
+    return {"runs": benchmark_sizes(args.n, args.ranks, cases), "csv": str(BENCH_DIR / "fem.csv")}
 
 
 def cmd_bench_path(args) -> dict:
-    """Load-path error rows (:func:`roughfriction.scripts.bench_fem.path_errors`)."""
-    from roughfriction.scripts.bench_fem import BENCH_DIR as FEM_DIR
-    from roughfriction.scripts.bench_fem import parse_case, path_errors
+    """Load-path error rows (:func:`roughfriction.studies.bench_fem.path_errors`)."""
+    from roughfriction.studies.bench_fem import path_errors
 
     cases = [parse_case(text) for text in args.case]
-    return {"runs": path_errors(args.n, args.ranks, cases), "csv": str(FEM_DIR / "path.csv")}
+    return {"runs": path_errors(args.n, args.ranks, cases), "csv": str(BENCH_DIR / "path.csv")}
 
 
 def cmd_bench_profile(args) -> dict:
-    """Time per phase and Krylov iterations of one figure case (:mod:`studies.profile`),
-    written as JSON to ``results/bench/profile_<surface>_F<load>_N<n>_<ranks>ranks.json``."""
-    import json
-
+    """Time per phase and Krylov iterations of one figure case
+    (:func:`roughfriction.studies.bench_fem.profile_case`), as a table."""
     from mpi4py import MPI
-    from roughfriction.errors import ConvergenceError
-    from roughfriction.files import atomic_write
-    from roughfriction.scripts.bench_fem import case_stem
-    from roughfriction.solver.run import stderr_progress
-    from roughfriction.studies.paper import fem_case
-    from roughfriction.studies.profile import profile_run
+    from roughfriction.studies.bench_fem import profile_case
 
-    comm = MPI.COMM_WORLD
-    case = fem_case(args.surface, args.load, args.n)
-    fem, profile = profile_run(case, comm, stderr_progress(comm))
-    summary = fem.result.summary()
-    fem.equilibrium.destroy()
-    profile |= {"case": {"surface": args.surface, "load_star": args.load, "n": args.n,
-                         "ranks": comm.size},
-                **{key: summary[key] for key in ("mu_s", "newton_iterations", "steps",
-                                                 "cut_steps", "converged")}}
-    path = BENCH_DIR / f"profile_{case_stem(args.surface, args.load, args.n, comm.size)}.json"
-    if comm.rank == 0:
-        atomic_write(path, lambda tmp: Path(tmp).write_text(json.dumps(profile, indent=1)))
-    if not summary["converged"]:
-        raise ConvergenceError(f"{fem.result.message} (profile written to {path})")
+    profile, path = profile_case(args.surface, args.load, args.n, MPI.COMM_WORLD, BENCH_DIR)
     record = {key: profile[key] for key in ("wall_s", "newton_iterations", "cut_steps", "mu_s")}
     for phase, row in profile["phases"].items():
         record[f"{phase} [s]"] = row["seconds"]
@@ -223,7 +153,6 @@ def cmd_bench_error(args) -> dict:
 
 def cmd_bench_stress(args) -> dict:
     """The stress matrix (:mod:`roughfriction.studies.stress`); a silent failure is an error."""
-    from roughfriction.errors import InputError
     from roughfriction.studies import stress
     from roughfriction.studies.batch import batch_plan
 

@@ -22,6 +22,7 @@ from pathlib import Path
 from roughfriction import __version__
 from roughfriction.errors import ConvergenceError, InputError
 from roughfriction.material import Material
+from roughfriction.scripts.surface_args import surface_from_args
 
 EXIT_INPUT_ERROR = 2
 #: Exit status of a FEM run that did not converge.
@@ -136,37 +137,6 @@ def add_surface_arguments(parser: argparse.ArgumentParser) -> None:
     )
     group.add_argument(
         "--no-detrend", action="store_true", help="keep the least-squares plane of the data"
-    )
-
-
-#: The reader flags (argparse dest -> flag) that apply to files only, with their unset values.
-READER_FLAGS = {"size": ("--size", None), "height_unit": ("--height-unit", None),
-                "lateral_unit": ("--lateral-unit", None), "fill": ("--fill", None),
-                "crop": ("--crop", False), "resample_pixels": ("--resample-pixels", False),
-                "no_detrend": ("--no-detrend", False)}
-
-
-def surface_from_args(args):
-    """Load the surface named on the command line (file or built-in); reader flags given with
-    a built-in name are refused by their flag names."""
-    from roughfriction.geometry.generate import builtin_names
-    from roughfriction.geometry.readers import load_surface
-
-    if args.surface in builtin_names():
-        given = [flag for dest, (flag, unset) in READER_FLAGS.items()
-                 if getattr(args, dest) != unset]
-        if given:
-            raise InputError(f"{', '.join(given)} apply to surface files, not to the built-in "
-                             f"surface {args.surface!r}")
-    return load_surface(
-        args.surface,
-        size=args.size,
-        height_unit=args.height_unit,
-        lateral_unit=args.lateral_unit,
-        fill=args.fill,
-        square="crop" if args.crop else None,
-        pixels="resample" if args.resample_pixels else None,
-        detrend=not args.no_detrend,
     )
 
 

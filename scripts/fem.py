@@ -17,18 +17,28 @@ A run writes every step and its inputs to an HDF5 file (``--output``, on rank 0)
 JSON summary. If the preload or the sliding does not converge, the partial results are written,
 labelled unconverged, and an ``InputError`` with the reason is raised (the CLI exits non-zero);
 mu_s is never reported from an unconverged state.
+
+Files: every output path is checked on every rank before anything is solved (a bad one is one
+``InputError`` on all ranks, not a rank left waiting); the default results name encodes what
+defines the run (:func:`default_output`); an existing results or fields file is replaced only
+with ``--overwrite``; results and fields are written under temporary names and renamed when
+complete, so a killed run leaves the previous files as they were.
 """
 
 from __future__ import annotations
 
 import argparse
+import hashlib
+import json
+import re
 import sys
 import tomllib
-from dataclasses import fields
+from dataclasses import dataclass, fields
 from pathlib import Path
 
 from roughfriction.case import FemCase, Loading, MeshOptions, SolverOptions
 from roughfriction.errors import ConvergenceError, InputError
+from roughfriction.files import agreed, check_writable_directory, check_writable_file
 from roughfriction.geometry.surface import Surface, surface_on_fem_grid, validate_grid_points
 from roughfriction.material import Material
 from roughfriction.studies.refinement import next_mesh, richardson
@@ -56,9 +66,14 @@ def add_fem_arguments(parser: argparse.ArgumentParser) -> None:
                         help="also run a 2x finer mesh of the same (bilinear) surface and report "
                         "its mu_s with an error estimate (mu_s_coarse, mu_s_extrapolated, "
                         "mu_s_error; see docs/verification.md)")
-    parser.add_argument("--xdmf", metavar="DIR", help="write fields to DIR/fields.xdmf")
+    parser.add_argument("--xdmf", metavar="DIR",
+                        help="write fields to DIR/fields.xdmf (and DIR/fields.h5)")
     parser.add_argument("--output", metavar="FILE",
-                        help="HDF5 results file (default results/fem/<surface>_F<load>_N<n>.h5)")
+                        help="HDF5 results file (default results/fem/<surface>_F<load>_N<n>"
+                        "[_<options>]_<digest>.h5, the digest of everything that defines the "
+                        "run: surface heights, window or re-gridding, case file, --refine)")
+    parser.add_argument("--overwrite", action="store_true",
+                        help="replace existing results and fields files (else refused)")
     parser.add_argument("--config", metavar="TOML",
                         help="case file: load, n, elastic, normal_only and tables [mesh], "
                         "[solver], [material] (SI units); flags override it")
@@ -85,10 +100,12 @@ def read_config(path: str | None) -> dict:
 
 def case_from_args(args, surface: Surface, comm=None) -> FemCase:
     """Build the FemCase from flags over the case file; with ``comm`` (the run's
-    communicator), refuse an ``--n`` whose run would not fit in memory before re-gridding."""
+    communicator), a case file that one rank cannot read stops every rank, and an ``--n``
+    whose run would not fit in memory is refused before re-gridding."""
     if comm is not None:
         from roughfriction.solver.run import check_memory
-    config = read_config(args.config)
+    config = (read_config(args.config) if comm is None
+              else agreed(comm, lambda: read_config(args.config)))
 
     def setting(name):
         flag = getattr(args, name)
@@ -150,12 +167,78 @@ def meshed_surface(surface: Surface, n: int | None, window: str | None, material
     return meshed
 
 
-def default_output(case: FemCase) -> Path:
-    """results/fem/<surface>_F<load>_N<n>[_elastic][_normal].h5"""
-    name = case.surface.name or "surface"
-    suffix = ("_elastic" if case.solver.elastic else "") + (
-        "_normal" if case.loading.normal_only else "")
-    return Path("results/fem") / f"{name}_F{case.loading.load_star:g}_N{case.surface.n}{suffix}.h5"
+#: Folder of the default results files.
+RESULTS_DIR = Path("results/fem")
+#: Hex digits of the digest in a default results name.
+DIGEST_LENGTH = 8
+
+
+def run_labels(args) -> tuple[str, ...]:
+    """What the command line adds to the case in the results name: the window (``window3``,
+    ``windowbest``) and ``refined`` (the run is the 2x finer mesh)."""
+    window = getattr(args, "window", None)
+    return ((f"window{window}",) if window is not None else ()) + (
+        ("refined",) if getattr(args, "refine", False) else ())
+
+
+def default_output(case: FemCase, labels: tuple[str, ...] = ()) -> Path:
+    """``results/fem/<surface>_F<load>_N<n>[_elastic][_normal][_<label>...]_<digest>.h5``.
+
+    The stem is for reading; the digest (the first :data:`DIGEST_LENGTH` hex digits of the
+    SHA-256 of the case's inputs and ``labels``: surface heights and spacing, load, material,
+    mesh and solver options) tells apart runs the stem does not (another window or re-gridding,
+    a case file, ``--refine``), so two different runs never share a name.
+    """
+    name = re.sub(r"[^A-Za-z0-9.+-]", "_", case.surface.name or "surface")
+    options = [label for label, chosen in (("elastic", case.solver.elastic),
+                                           ("normal", case.loading.normal_only)) if chosen]
+    stem = "_".join([name, f"F{case.loading.load_star:g}", f"N{case.surface.n}", *options,
+                     *labels])
+    defined = json.dumps({"inputs": case.inputs(), "labels": list(labels)}, sort_keys=True)
+    digest = hashlib.sha256(defined.encode()).hexdigest()[:DIGEST_LENGTH]
+    return RESULTS_DIR / f"{stem}_{digest}.h5"
+
+
+@dataclass(frozen=True)
+class FemOutputs:
+    """Where a ``fem`` command writes.
+
+    Attributes
+    ----------
+    results : pathlib.Path
+        The results file (with ``--refine``: of the finer mesh).
+    coarse : pathlib.Path or None
+        With ``--refine``: the coarse mesh's results file.
+    fields : pathlib.Path or None
+        The ``--xdmf`` directory (``fields.xdmf`` and ``fields.h5`` in it).
+    """
+
+    results: Path
+    coarse: Path | None = None
+    fields: Path | None = None
+
+    @classmethod
+    def from_args(cls, args, case: FemCase) -> FemOutputs:
+        """The outputs named by the command line (default results name: :func:`default_output`
+        of ``case``, the case as meshed)."""
+        results = Path(args.output) if args.output else default_output(case, run_labels(args))
+        coarse = (results.with_name(f"{results.stem}_coarse{results.suffix}")
+                  if args.refine else None)
+        return cls(results, coarse, Path(args.xdmf) if args.xdmf else None)
+
+    def check(self, overwrite: bool) -> None:
+        """Refuse (:class:`InputError`) an output that cannot be written, or that exists when
+        ``overwrite`` is false. Creates nothing."""
+        existing = [path for path in (self.results, self.coarse) if path is not None]
+        for path in existing:
+            check_writable_file(path)
+        if self.fields is not None:
+            check_writable_directory(self.fields)
+            existing.append(self.fields / "fields.xdmf")
+        present = [str(path) for path in existing if path.exists()]
+        if present and not overwrite:
+            raise InputError(f"{' and '.join(present)} already exist{'s' * (len(present) == 1)}"
+                             ": pass --overwrite to replace, or name another --output/--xdmf")
 
 
 def run_fem(args) -> dict:
@@ -171,33 +254,41 @@ def run_fem(args) -> dict:
     """
     from mpi4py import MPI
     from roughfriction.geometry.statistics import surface_statistics
-    from roughfriction.scripts.cli import surface_from_args
-    from roughfriction.solver.results import save_run
+    from roughfriction.scripts.surface_args import surface_from_args
     from roughfriction.solver.run import run
 
     comm = MPI.COMM_WORLD
-    case = case_from_args(args, surface_from_args(args), comm)
-    output = Path(args.output) if args.output else default_output(case)
+    case = case_from_args(args, agreed(comm, lambda: surface_from_args(args)), comm)
+    outputs = FemOutputs.from_args(args, case)
+    agreed(comm, lambda: outputs.check(args.overwrite))
+    output = outputs.results
     meshed = {"psi_meshed": surface_statistics(case.surface, case.material).psi}
-    outcome = run(case, comm, xdmf_directory=args.xdmf)
+    outcome = run(case, comm, xdmf_directory=outputs.fields)
     if not args.refine:
-        save_run(output, case, outcome, comm, extra=meshed)
-        _check_converged(outcome, output)
+        _save(output, case, outcome, comm, meshed)
         summary = outcome.result.summary()
         _warn_unresolved(summary, comm)
         return {**summary, **meshed}
 
-    coarse_output = output.with_name(f"{output.stem}_coarse{output.suffix}")
-    save_run(coarse_output, case, outcome, comm, extra=meshed)
-    _check_converged(outcome, coarse_output)
+    _save(outputs.coarse, case, outcome, comm, meshed)
     fine_case = next_mesh(case)
     fine = run(fine_case, comm)
     summary = fine.result.summary()
     estimate = discretisation_error(outcome.result.summary(), summary)
-    save_run(output, fine_case, fine, comm, extra={**estimate, **meshed})
-    _check_converged(fine, output)
+    _save(output, fine_case, fine, comm, {**estimate, **meshed})
     _warn_unresolved(summary, comm)
     return {**summary, **estimate, **meshed}
+
+
+def _save(output: Path, case: FemCase, fem_run, comm, extra: dict) -> None:
+    """Write the run's results file (``extra``: added to its summary), name it on stderr
+    (rank 0), and refuse an unconverged run (:func:`_check_converged`)."""
+    from roughfriction.studies.results_file import save_run
+
+    save_run(output, case, fem_run, comm, extra=extra)
+    if comm.rank == 0:
+        print(f"results: {output}", file=sys.stderr)
+    _check_converged(fem_run, output)
 
 
 def unresolved_warning(summary: dict) -> str | None:
@@ -236,14 +327,3 @@ def _check_converged(outcome, output: Path) -> None:
     if not outcome.result.converged:
         raise ConvergenceError(f"FEM run did not converge: {outcome.result.message} "
                          f"(partial results in {output})")
-
-
-def main(argv: list[str] | None = None) -> int:
-    """``python -m roughfriction.scripts.fem ARGS``: the same as ``roughfriction fem ARGS``."""
-    from roughfriction.scripts.cli import main as cli_main
-
-    return cli_main(["fem", *(sys.argv[1:] if argv is None else argv)])
-
-
-if __name__ == "__main__":
-    sys.exit(main())

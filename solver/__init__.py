@@ -11,7 +11,7 @@ Read in this order (the paper's procedure):
   the surface faces
 * ``periodic``     u = P u_red (periodic sides, fixed bottom, hanging nodes); ``linear`` MUMPS /
   CG + GAMG
-* ``results``      step records, summary, HDF5; ``progress`` progress records; ``fields`` XDMF
+* ``results``      step records and summary; ``progress`` progress records; ``fields`` XDMF
 
 The case (surface, loading, material, mesh and solver options) is ``roughfriction.case.FemCase``;
 the block is meshed by ``roughfriction.geometry.mesh``. ``plasticity``, ``results`` and

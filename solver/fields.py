@@ -5,22 +5,49 @@ Fields: displacement [m] (P1 vector); von Mises stress [Pa] and equivalent plast
 (cell averages over the Gauss points, DG0); contact pressure [Pa], x shear traction [Pa]
 and contact state (0 open, 1 stick, 2 slip) on the surface nodes (P1 scalars, zero below the
 surface; periodic images copy their master node).
+
+Files a killed run cannot corrupt: the series is written in a hidden folder of the directory
+(``.fields.*``) and moved onto ``fields.h5`` and ``fields.xdmf`` when it is closed, so earlier
+fields files stay as they were until a run's fields are complete. A run stopped by an exception
+removes its folder; a killed one leaves it behind (delete it).
 """
 
 from __future__ import annotations
 
+import os
+import shutil
+import tempfile
+import weakref
 from pathlib import Path
 
 import numpy as np
 from dolfinx import fem, io
+from roughfriction.files import agreed
 from roughfriction.geometry.mesh import Block
 from roughfriction.solver.contact import ContactResponse, RigidFlat
 from roughfriction.solver.periodic import dof_node_grid_index
 from roughfriction.solver.solid import Solid
 
+#: The files of a field series: the heavy data first, so that it is in place when the XDMF
+#: file that names it is.
+SERIES_FILES = ("fields.h5", "fields.xdmf")
+
+
+def staging_directory(directory: Path, comm) -> Path:
+    """A new hidden folder in ``directory`` (both created on rank 0; the name is shared by every
+    rank of ``comm``) where a series is written until it is complete."""
+    def make():
+        if comm.rank == 0:
+            directory.mkdir(parents=True, exist_ok=True)
+            return tempfile.mkdtemp(dir=directory, prefix=".fields.")
+        return None
+
+    return Path(comm.bcast(agreed(comm, make), root=0))
+
 
 class FieldWriter:
-    """Writes the solid and contact fields to ``DIRECTORY/fields.xdmf``.
+    """Writes the solid and contact fields to ``DIRECTORY/fields.xdmf`` (heavy data in
+    ``DIRECTORY/fields.h5``), in place when :meth:`close` is called.
 
     Parameters
     ----------
@@ -36,11 +63,13 @@ class FieldWriter:
 
     def __init__(self, directory, block: Block, solid: Solid, flat: RigidFlat):
         mesh = block.mesh
-        if mesh.comm.rank == 0:
-            Path(directory).mkdir(parents=True, exist_ok=True)
-        mesh.comm.barrier()
+        self.comm, self.directory = mesh.comm, Path(directory)
+        self.staging = staging_directory(self.directory, self.comm)
+        self._discard = weakref.finalize(self, shutil.rmtree, self.staging, ignore_errors=True)
+        if self.comm.rank != 0:
+            self._discard.detach()
         self.solid, self.flat = solid, flat
-        self.file = io.XDMFFile(mesh.comm, str(Path(directory) / "fields.xdmf"), "w")
+        self.file = io.XDMFFile(mesh.comm, str(self.staging / "fields.xdmf"), "w")
         self.file.write_mesh(mesh)
 
         cell_space = fem.FunctionSpace(mesh, ("DG", 0))
@@ -80,5 +109,13 @@ class FieldWriter:
             self.file.write_function(function, time)
 
     def close(self) -> None:
-        """Close the XDMF file."""
+        """Close the series and move its files into the directory (replacing earlier ones)."""
         self.file.close()
+
+        def publish():
+            if self.comm.rank == 0:
+                for name in SERIES_FILES:
+                    os.replace(self.staging / name, self.directory / name)
+                self._discard()
+
+        agreed(self.comm, publish)

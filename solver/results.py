@@ -1,15 +1,11 @@
-"""What a FEM run reports: per-step records, the run's summary (mu_s...), and the HDF5 file."""
+"""What a FEM run reports: per-step records and the run's summary (mu_s...). The HDF5 file
+that holds them is written by :mod:`roughfriction.studies.results_file`, outside the physics."""
 
 from __future__ import annotations
 
-import json
-import subprocess
-from dataclasses import dataclass, fields
-from pathlib import Path
+from dataclasses import dataclass
 
 import numpy as np
-from roughfriction.case import FemCase
-from roughfriction.files import atomic_write
 from scipy import ndimage
 
 
@@ -198,114 +194,3 @@ class FemResult:
             "converged": self.converged,
             "ranks": self.sizes.get("ranks"),
         }
-
-
-def package_versions() -> dict:
-    """Versions of the numerical stack (recorded with every result)."""
-    import dolfinx
-    import gmsh
-    import h5py
-    import petsc4py
-    import scipy
-    import ufl
-
-    modules = {"dolfinx": dolfinx, "ufl": ufl, "petsc4py": petsc4py, "gmsh": gmsh, "numpy": np,
-               "scipy": scipy, "h5py": h5py}
-    return {name: module.__version__ for name, module in modules.items()}
-
-
-def git_revision() -> str:
-    """The source tree's git commit (with "-dirty" if modified), or "unknown"."""
-    root = Path(__file__).resolve().parent.parent
-    try:
-        revision = subprocess.run(["git", "describe", "--always", "--dirty"], cwd=root,
-                                  capture_output=True, text=True, timeout=10, check=True)
-    except (OSError, subprocess.SubprocessError):
-        return "unknown"
-    return revision.stdout.strip()
-
-
-def write_hdf5(path: Path, inputs: dict, result: FemResult, maps: dict, note: str = "",
-               extra: dict | None = None) -> None:
-    """Write a run to HDF5 atomically (temporary file, then rename). Call on one rank.
-
-    Layout: root attributes ``inputs``, ``summary`` (JSON), ``versions``, ``git``,
-    ``converged``, ``message``; group ``steps`` with one dataset per :class:`StepRecord` field;
-    group ``timings`` and ``sizes`` as attributes; group ``maps`` with N x N contact maps.
-
-    Parameters
-    ----------
-    path : pathlib.Path
-        Destination file.
-    inputs : dict
-        The case (``FemCase.inputs()``).
-    result : FemResult
-        The run.
-    maps : dict
-        Name -> N x N array (e.g. contact at the end of preload and at inception).
-    note : str
-        How the run was obtained, if not the usual way (root attribute ``note``).
-    extra : dict, optional
-        Added to the summary (e.g. the discretisation error estimate ``mu_s_error``).
-    """
-    summary = {**result.summary(), **(extra or {})}
-    atomic_write(Path(path), lambda temporary: _write_hdf5(temporary, inputs, result, summary,
-                                                           maps, note))
-
-
-def _write_hdf5(path, inputs: dict, result: FemResult, summary: dict, maps: dict,
-                note: str) -> None:
-    import h5py
-
-    with h5py.File(path, "w") as h5:
-        h5.attrs["inputs"] = json.dumps(inputs)
-        h5.attrs["summary"] = json.dumps(summary)
-        h5.attrs["versions"] = json.dumps(package_versions())
-        h5.attrs["git"] = git_revision()
-        h5.attrs["converged"] = result.converged
-        h5.attrs["message"] = result.message
-        if note:
-            h5.attrs["note"] = note
-        steps = h5.create_group("steps")
-        for field in fields(StepRecord):
-            values = [getattr(record, field.name) for record in result.records]
-            steps.create_dataset(field.name, data=np.array(values, dtype="S" if field.type == "str"
-                                                           else None))
-        for name, values in (("timings", result.timings), ("sizes", result.sizes)):
-            group = h5.create_group(name)
-            for key, value in values.items():
-                group.attrs[key] = value
-        grid_maps = h5.create_group("maps")
-        for name, values in maps.items():
-            grid_maps.create_dataset(name, data=values)
-
-
-def save_run(path: Path, case: FemCase, fem_run, comm, note: str = "",
-             extra: dict | None = None) -> None:
-    """Write a run's results file (rank 0 writes, atomically; every rank waits for it).
-
-    The file holds the case's inputs, the records and summary, and the surface maps of the
-    run plus ``surface_heights``, the N x N heights of the FEM grid [m] (for the interference
-    and for drawing maps over the topography), and the root attribute ``note`` if given.
-
-    Parameters
-    ----------
-    path : pathlib.Path
-        Destination HDF5 file.
-    case : FemCase
-        The case that was run.
-    fem_run : solver.run.FemRun
-        Its outcome.
-    comm : mpi4py.MPI.Comm
-        The communicator the run used; call on every rank.
-    note : str
-        How the run was obtained, if not the usual way (e.g. on a standalone path after its
-        shared normal path failed, see :mod:`roughfriction.studies.cache`).
-    extra : dict, optional
-        Added to the summary (``fem``: the psi of the meshed surface; with ``--refine`` the
-        discretisation error estimate).
-    """
-    if comm.rank == 0:
-        maps = {"surface_heights": case.surface.heights, **fem_run.maps}
-        write_hdf5(path, case.inputs(), fem_run.result, maps, note, extra)
-    comm.barrier()

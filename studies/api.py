@@ -138,8 +138,8 @@ def run_fem(case: FemCase, output=None, *, overwrite: bool = False, comm=None, p
         The run did not converge (after writing its partial results to ``output``).
     """
     from mpi4py import MPI
-    from roughfriction.solver.results import save_run
     from roughfriction.solver.run import run
+    from roughfriction.studies.results_file import save_run
 
     comm = comm or MPI.COMM_WORLD
     output = None if output is None else writable_output(Path(output), overwrite)

@@ -8,8 +8,8 @@ format. The number of MPI
 ranks is not part of it: runs agree to 1e-6 across rank counts (``tests/test_solver_mpi.py``).
 
 An entry is finished when its file exists under its final name. Entries are written by
-:func:`solver.results.save_run` (temporary file, then rename), each as soon as its run ends, so
-a killed batch loses at most the run in progress and a half-written file is never read as a
+:func:`studies.results_file.save_run` (temporary file, then rename), each as soon as its run
+ends, so a killed batch loses at most the run in progress and a half-written file is never read as a
 result. Unconverged runs are entries too (a rerun would repeat them); delete the file to retry.
 A run that fails on a normal path shared with smaller loads is run once more on its own path
 (:func:`_compute_alone`); if that converges, its entry is the standalone run, with a ``note``
@@ -41,6 +41,7 @@ from pathlib import Path
 from roughfriction.case import FemCase, Loading
 from roughfriction.errors import InputError
 from roughfriction.solver.results import StepRecord
+from roughfriction.studies.results_file import FILE_FORMAT, save_run
 
 #: Environment variable naming the cache directory (default ``results/runs``).
 RUNS_VARIABLE = "ROUGHFRICTION_RUNS"
@@ -60,8 +61,9 @@ PHYSICS_MODULES = (
 #: Modules of the solver package that do not change results (field output, progress).
 SOLVER_OUTPUT_MODULES = ("roughfriction.solver", "roughfriction.solver.fields",
                          "roughfriction.solver.progress")
-#: Layout version of an entry (bumped when what an entry holds changes).
-ENTRY_FORMAT = 1
+#: Layout version of an entry: that of the results file, whose writer
+#: (:mod:`studies.results_file`) is not physics.
+ENTRY_FORMAT = FILE_FORMAT
 
 # --- keys ------------------------------------------------------------------------------------
 
@@ -398,7 +400,6 @@ def _compute_group(group: RunGroup, comm, reporter: RunReporter) -> None:
     """Run one group, writing each entry as soon as its run ends; then free its PETSc objects
     (:func:`release`). A run past the first that failed on the shared normal path
     is run again alone (:func:`_compute_alone`)."""
-    from roughfriction.solver.results import save_run
     from roughfriction.solver.run import run_loads
 
     def finished(index, fem_run):
@@ -425,7 +426,6 @@ def _compute_alone(case: FemCase, path: Path, message: str, comm,
     path through its own: the states differ at step level (plastic path dependence), so a
     stick/slip cycle that stalls one may not arise on the other.
     """
-    from roughfriction.solver.results import save_run
     from roughfriction.solver.run import run_loads
 
     note = f"computed alone: on the shared normal path it failed ({message})"

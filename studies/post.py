@@ -1,7 +1,7 @@
 """Reading a FEM results file (``roughfriction fem --output``, or a run-cache entry) with h5py.
 
 No dolfinx: figure scripts and ``roughfriction post RUN`` use this on any machine. The file's
-layout is written by :func:`solver.results.write_hdf5`; here it is read back into a
+layout is written by :func:`studies.results_file.write_hdf5`; here it is read back into a
 :class:`RunFile`, and the derived quantities are small pure functions of it: the per-step table,
 the state at the end of the preload, the interference omega_0, junction growth, and summaries
 and CSV files of the surface maps.
@@ -103,7 +103,7 @@ def read_run(path) -> RunFile:
     Parameters
     ----------
     path : str or pathlib.Path
-        An HDF5 file written by :func:`solver.results.write_hdf5`.
+        An HDF5 file written by :func:`studies.results_file.write_hdf5`.
 
     Returns
     -------

@@ -1,6 +1,7 @@
-"""The FEM benchmark's table (solver/benchmark.py), with a stand-in for the mpirun runs."""
+"""The FEM benchmark's table (studies/bench_fem.py), with a stand-in for the mpirun runs."""
 
-from roughfriction.scripts import bench_fem as benchmark
+from roughfriction.scripts.bench import parse_case
+from roughfriction.studies import bench_fem as benchmark
 
 
 def fake_run(surface, load, n, ranks):
@@ -39,9 +40,9 @@ def test_a_case_is_surface_colon_load():
     import pytest
     from roughfriction.errors import InputError
 
-    assert benchmark.parse_case("G1:1.86") == ("G1", 1.86)
+    assert parse_case("G1:1.86") == ("G1", 1.86)
     with pytest.raises(InputError, match="SURFACE:LOAD"):
-        benchmark.parse_case("G1")
+        parse_case("G1")
 
 
 def test_the_path_error_compares_the_default_path_with_a_finer_one(tmp_path, monkeypatch):

@@ -1,18 +1,16 @@
 """Run cache: keys, reuse, grouping, entries written one by one, and a run killed mid-way."""
 
 import json
-import os
-import selectors
 import signal
 import subprocess
 import sys
-import time
 import types
 from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 import pytest
+from commands import command_environment, wait_for_line
 from roughfriction.case import FemCase, Loading, SolverOptions
 from roughfriction.errors import InputError
 from roughfriction.geometry.surface import Surface
@@ -43,7 +41,7 @@ def rough_case(load=0.155, normal_only=False, seed=3, name="G-test", **solver):
 # --- keys ------------------------------------------------------------------------------------
 
 def test_key_is_the_same_in_another_process():
-    code = ("from tests.test_cache import rough_case; "
+    code = ("import sys; sys.path.insert(0, 'tests'); from test_cache import rough_case; "
             "from roughfriction.studies.cache import run_key, physics_version; "
             "print(run_key(rough_case(), physics_version()))")
     other = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True,
@@ -97,7 +95,7 @@ def test_physics_version_follows_the_physics_sources(tmp_path):
             "roughfriction.geometry.surface", "roughfriction.material"} <= set(sources)
     assert not set(sources) & {"roughfriction.studies.cache", "roughfriction.scripts.fem",
                                "roughfriction.studies.post", "roughfriction.geometry.readers",
-                               "roughfriction.solver.fields"}
+                               "roughfriction.solver.fields", "roughfriction.studies.results_file"}
     copies = copy_physics_sources(tmp_path)
     assert physics_version(copies) == PHYSICS  # contents, not place or git
     contact = copies["roughfriction.solver.contact"]
@@ -108,6 +106,15 @@ def test_physics_version_follows_the_physics_sources(tmp_path):
     changed = physics_version(copies)
     assert changed != PHYSICS
     assert run_key(rough_case(), changed) != run_key(rough_case(), PHYSICS)
+
+
+def test_the_physics_does_no_file_output_or_provenance():
+    """Writing results and asking git for the revision (studies/results_file.py) are outside
+    the physics key: changing the writer keeps the cached runs."""
+    for name, path in physics_sources().items():
+        code = path.read_text()
+        for io in ("import h5py", "import subprocess", "git"):
+            assert io not in code, f"{name} holds output or provenance ({io!r})"
 
 
 # --- reuse and grouping, with a stand-in for the FEM -----------------------------------------
@@ -388,30 +395,6 @@ def test_progress_lines_name_the_run_and_the_ratio():
 
 
 # --- real FEM runs ----------------------------------------------------------------------------
-
-def command_environment() -> dict:
-    """This environment without an MPI launcher's variables (the child is a singleton)."""
-    launcher = ("OMPI_", "PMIX_", "PMI_", "OPAL_", "HYDRA_")
-    env = {key: value for key, value in os.environ.items() if not key.startswith(launcher)}
-    env.update(OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
-               OMP_NUM_THREADS="1", OPENBLAS_NUM_THREADS="1")
-    return env
-
-
-def wait_for_line(process, text: str, seconds: float) -> str:
-    """Read the child's stderr until a line containing ``text``; fail after ``seconds``."""
-    selector = selectors.DefaultSelector()
-    selector.register(process.stderr, selectors.EVENT_READ)
-    deadline = time.monotonic() + seconds
-    while time.monotonic() < deadline:
-        if selector.select(timeout=1.0):
-            line = process.stderr.readline()
-            if not line:
-                break
-            if text in line:
-                return line
-    pytest.fail(f"no line with {text!r} on the child's stderr within {seconds} s")
-
 
 @pytest.mark.fem
 def test_a_killed_run_leaves_no_entry_and_a_rerun_completes(tmp_path):

@@ -63,7 +63,7 @@ def normal_maps():
 
 
 def write_run(path, steps=STEPS, converged=True, message="", maps=None):
-    from roughfriction.solver.results import write_hdf5
+    from roughfriction.studies.results_file import write_hdf5
 
     result = FemResult(records(steps), converged, message, False, {"total_s": 3.0},
                        {"ranks": 2, "linear_solver": "direct"})

@@ -1,23 +1,33 @@
-"""The ``fem`` command: JSON keys, HDF5 contents, case files, bad inputs."""
+"""The ``fem`` command: JSON keys, HDF5 contents, case files, bad inputs, output files."""
 
 import json
+import signal
+import subprocess
+import sys
 
 import dolfinx  # noqa: E402, F401  (an install without the FEM fails here)
 import h5py  # noqa: E402
 import numpy as np
 import pytest
+from commands import command_environment, wait_for_line
 from roughfriction.case import Loading, SolverOptions  # noqa: E402
 from roughfriction.errors import InputError  # noqa: E402
 from roughfriction.geometry.generate import builtin_surface  # noqa: E402
 from roughfriction.geometry.statistics import surface_statistics
 from roughfriction.geometry.surface import surface_on_fem_grid
 from roughfriction.material import Material
-from roughfriction.scripts.fem import main, unresolved_warning  # noqa: E402
+from roughfriction.scripts.cli import main as cli_main
+from roughfriction.scripts.fem import default_output, unresolved_warning  # noqa: E402
 from roughfriction.solver.results import count_patches  # noqa: E402
 
 JSON_KEYS = {"mu_s", "Ft_max", "Fn", "area_ratio_normal", "area_ratio_sliding",
              "junction_growth", "contact_nodes", "contact_patches", "cells_per_patch", "reliable",
              "steps", "newton_iterations", "wall_s", "converged", "ranks"}
+
+
+def main(argv):
+    """``roughfriction fem ARGV``."""
+    return cli_main(["fem", *argv])
 
 
 @pytest.fixture
@@ -176,3 +186,94 @@ def test_unresolved_patches_are_warned_about_in_one_line():
     assert "\n" not in warning and "< 4" in warning
     for summary in ({"reliable": True, "cells_per_patch": 6.0}, {"reliable": None}):
         assert unresolved_warning(summary) is None
+
+
+@pytest.mark.parametrize("flags", [["--output", "a_file/run.h5"], ["--xdmf", "a_file/fields"]])
+def test_an_unwritable_output_is_refused_before_the_run(flags, tmp_path, monkeypatch, capsys):
+    """An output under a file: one line and exit 2 before anything is solved (not a traceback
+    after the whole run)."""
+    from roughfriction.solver import run as solver_run
+
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "a_file").write_text("")
+    monkeypatch.setattr(solver_run, "run", lambda *args, **kwargs: pytest.fail("solved"))
+    assert main(["G5", "--n", "8", "--load", "0.3", *flags]) == 2
+    error = capsys.readouterr().err.strip().splitlines()
+    assert error[-1].startswith("roughfriction: error: cannot write")
+    assert "a_file is not a directory" in error[-1]
+
+
+def test_default_names_tell_apart_what_defines_a_run():
+    """A window, a re-gridding, a case-file option and --refine each give another name; the
+    same run, the same name."""
+    from dataclasses import replace
+
+    from roughfriction.case import FemCase
+    from roughfriction.studies.paper import surface_window
+
+    surface = builtin_surface("G5")
+    plain = FemCase(surface_on_fem_grid(surface, 8), Loading(0.3))
+    variants = [plain, FemCase(surface_window(surface, 8, 0), Loading(0.3)),
+                FemCase(surface_window(surface, 8, 1), Loading(0.3)),
+                replace(plain, solver=SolverOptions(penalty=20.0))]
+    names = [default_output(case) for case in variants]
+    names.append(default_output(plain, ("refined",)))
+    assert len(set(names)) == len(names)
+    assert all(name.name.startswith("G5_F0.3_N8_") for name in names)
+    same = FemCase(surface_on_fem_grid(builtin_surface("G5"), 8), Loading(0.3))
+    assert default_output(same) == names[0]
+
+
+@pytest.mark.fem
+def test_an_existing_results_file_is_replaced_only_when_asked(tmp_path, monkeypatch, capsys):
+    """A re-grid and a window of the same N are two files; running the window again is refused
+    in one line (the files untouched) unless --overwrite."""
+    monkeypatch.chdir(tmp_path)
+    common = ["G5", "--n", "8", "--load", "0.3", "--elastic", "--normal-only", "--json"]
+    window = [*common, "--window", "best"]
+    assert main(common) == 0
+    assert main(window) == 0
+    files = sorted((tmp_path / "results" / "fem").glob("*.h5"))
+    assert len(files) == 2
+    capsys.readouterr()
+    stamps = {path: path.stat().st_mtime_ns for path in files}
+    assert main(window) == 2
+    error = capsys.readouterr().err.strip().splitlines()
+    assert len(error) == 1 and "already exists: pass --overwrite" in error[0]
+    assert {path: path.stat().st_mtime_ns for path in files} == stamps
+    assert main([*window, "--overwrite"]) == 0
+    assert sorted((tmp_path / "results" / "fem").glob("*.h5")) == files
+    assert sum(path.stat().st_mtime_ns != stamps[path] for path in files) == 1
+
+
+@pytest.mark.fem
+def test_a_killed_xdmf_run_leaves_the_previous_fields_as_they_were(tmp_path):
+    """The fields are written under a temporary name: a run killed mid-way neither truncates
+    the fields files of the run before it nor leaves a half-written one in their place."""
+    fields = tmp_path / "fields"
+    command = [sys.executable, "-m", "roughfriction.scripts.cli", "fem", "G5", "--n", "8",
+               "--load", "0.3", "--xdmf", str(fields), "--output", str(tmp_path / "run.h5"),
+               "--overwrite"]
+    first = subprocess.run([*command, "--elastic", "--normal-only"], cwd=tmp_path,
+                           env=command_environment(), capture_output=True, text=True,
+                           timeout=300)
+    assert first.returncode == 0, first.stderr
+    xdmf = (fields / "fields.xdmf").read_text()
+    assert "fields.h5:/" in xdmf and ".fields." not in xdmf  # names its data where it is
+    with h5py.File(fields / "fields.h5") as h5:
+        assert len(h5["Function/contact_pressure"]) == 1  # the end of the preload
+    before = {path.name: path.read_bytes() for path in fields.iterdir()}
+
+    process = subprocess.Popen(command, cwd=tmp_path, env=command_environment(), text=True,
+                               stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    try:
+        wait_for_line(process, "Fn=", 120)  # a load step is done: the run is writing fields
+        process.send_signal(signal.SIGKILL)
+        assert process.wait(30) == -signal.SIGKILL
+    finally:
+        if process.poll() is None:
+            process.kill()
+        process.stderr.close()
+    visible = {path.name: path.read_bytes() for path in fields.iterdir()
+               if not path.name.startswith(".")}
+    assert visible == before

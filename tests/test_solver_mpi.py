@@ -1,7 +1,6 @@
 """Two ranks reproduce the serial run (run under ``mpirun -n 2 python -m pytest -m mpi``)."""
 
 import json
-import os
 import subprocess
 import sys
 from pathlib import Path
@@ -9,6 +8,7 @@ from pathlib import Path
 import dolfinx  # noqa: E402, F401  (an install without the FEM fails here)
 import numpy as np
 import pytest
+from commands import command_environment, command_outcome
 from mpi4py import MPI  # noqa: E402
 
 pytestmark = [pytest.mark.mpi, pytest.mark.fem]
@@ -36,14 +36,6 @@ print(json.dumps([[r.phase, r.slide, r.tangential_force, r.normal_force, r.conta
 """
 
 
-def serial_environment() -> dict:
-    """This environment without the MPI launcher's variables: the child runs as a singleton."""
-    launcher = ("OMPI_", "PMIX_", "PMI_", "OPAL_", "HYDRA_")
-    env = {key: value for key, value in os.environ.items() if not key.startswith(launcher)}
-    env.update(OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1")
-    return env
-
-
 def curve(records):
     return [[r.phase, r.slide, r.tangential_force, r.normal_force, r.contact_nodes]
             for r in records]
@@ -60,7 +52,7 @@ def test_two_ranks_equal_serial():
     serial = None
     if comm.rank == 0:
         output = subprocess.run([sys.executable, "-c", SERIAL], cwd=ROOT, capture_output=True,
-                                text=True, check=True, env=serial_environment()).stdout
+                                text=True, check=True, env=command_environment()).stdout
         serial = json.loads(output.strip().splitlines()[-1])
     serial = comm.bcast(serial, root=0)
 
@@ -101,3 +93,33 @@ def test_the_factors_memory_bound_is_shared_by_the_ranks_of_a_node(monkeypatch):
     bound = linear.factor_memory_mb(comm)
     assert bound == int(linear.FACTOR_MEMORY_SHARE * 10.0 / 2 * 1024)
     assert comm.allgather(bound) == [bound, bound]
+
+
+#: Seconds a two-rank ``fem`` command may take to refuse a bad path (a hang fails here).
+REFUSAL_TIMEOUT_S = 240
+
+
+@pytest.mark.parametrize("arguments, message", [
+    (["G5", "--output", "a_file/run.h5"], "a_file is not a directory"),
+    (["G5", "--xdmf", "a_file/fields"], "a_file is not a directory"),
+    (["G5", "--config", "missing.toml"], "cannot read case file missing.toml"),
+    (["missing.npy", "--size", "7um"], "missing.npy"),
+])
+def test_a_bad_path_stops_every_rank_with_one_line(arguments, message, tmp_path):
+    """``mpirun -n 2 roughfriction fem`` with an input or output path it cannot use: exit 2 and
+    one error line, before any solve, with no rank left waiting for another."""
+    comm = MPI.COMM_WORLD
+    outcome = None
+    if comm.rank == 0:
+        (tmp_path / "a_file").write_text("")
+        command = ["mpirun", "-n", "2", "--oversubscribe", sys.executable, "-m",
+                   "roughfriction.scripts.cli", "fem", *arguments, "--n", "8", "--load", "0.3",
+                   "--elastic", "--normal-only"]
+        outcome = command_outcome(command, tmp_path, REFUSAL_TIMEOUT_S)
+    outcome = comm.bcast(outcome, root=0)
+    assert outcome is not None, f"no exit within {REFUSAL_TIMEOUT_S} s: a rank hangs"
+    status, stderr = outcome
+    errors = [line for line in stderr.splitlines() if line.startswith("roughfriction:")]
+    assert status == 2, stderr
+    assert len(errors) == 1 and message in errors[0], stderr
+    assert "Traceback" not in stderr and "Fn=" not in stderr  # no load step was solved

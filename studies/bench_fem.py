@@ -1,4 +1,5 @@
-"""FEM benchmark: the headline cases on N x N surface grids, each run by ``mpirun`` as the CLI.
+"""FEM benchmark: the headline cases on N x N surface grids, each run by ``mpirun`` as the CLI
+(``roughfriction fem``), and the time profile of one run.
 
     roughfriction bench fem --n 32 64 128 --ranks 2 --case G5:0.155 G1:1.86
 
@@ -14,6 +15,11 @@ ranks, steps, Newton iterations, mu_s and the problem size; each run's full reco
 The load path's error per case: each case on the default path and on one ``PATH_FACTOR`` times
 finer (largest preload and sliding increments divided by it, ``SolverOptions``), written to
 ``results/bench/path.csv`` with mu_s of both and their relative difference.
+
+    mpirun -n 2 roughfriction bench profile G5 --load 0.155 --n 32
+
+Where one figure case's time goes (:mod:`studies.profile`), written as JSON to
+``results/bench/profile_<surface>_F<load>_N<n>_<ranks>ranks.json``.
 """
 
 from __future__ import annotations
@@ -27,8 +33,10 @@ from pathlib import Path
 import h5py
 import numpy as np
 from roughfriction.case import SolverOptions
+from roughfriction.errors import ConvergenceError
+from roughfriction.files import atomic_write
+from roughfriction.studies.batch import BENCH_DIR
 
-BENCH_DIR = Path("results/bench")
 #: (surface, F*) of the headline rows.
 HEADLINE_CASES = (("G5", 0.155), ("G5", 0.93), ("2L", 0.5), ("G1", 1.86))
 DEFAULT_SIZES = (32, 64, 128)
@@ -42,17 +50,6 @@ COLUMNS = ("surface", "load_star", "n", "ranks", "cells", "reduced_dofs", "linea
            "mu_s", "converged")
 
 
-def parse_case(text: str) -> tuple[str, float]:
-    """'SURFACE:LOAD' (e.g. 'G5:0.155') as (surface, F*)."""
-    from roughfriction.errors import InputError
-
-    surface, _, load = text.partition(":")
-    try:
-        return surface, float(load)
-    except ValueError:
-        raise InputError(f"a benchmark case is SURFACE:LOAD, e.g. G5:0.155, got {text!r}") from None
-
-
 def case_stem(surface: str, load: float, n: int, ranks: int) -> str:
     """``<surface>_F<load>_N<n>_<ranks>ranks``: the file name of one benchmark case's output."""
     return f"{surface}_F{load:g}_N{n}_{ranks}ranks"
@@ -60,11 +57,11 @@ def case_stem(surface: str, load: float, n: int, ranks: int) -> str:
 
 def run_size(surface: str, load: float, n: int, ranks: int, config: Path | None = None,
              label: str = "fem") -> dict:
-    """Run one case and grid size through ``roughfriction.scripts.fem`` under mpirun (with the
-    case file ``config``); return its row. Its record goes to ``<label>_<case_stem>.h5``."""
+    """Run one case and grid size through ``roughfriction fem`` under mpirun (with the case
+    file ``config``); return its row. Its record goes to ``<label>_<case_stem>.h5``."""
     output = BENCH_DIR / f"{label}_{case_stem(surface, load, n, ranks)}.h5"
     command = ["mpirun", "-n", str(ranks), "--oversubscribe", sys.executable, "-m",
-               "roughfriction.scripts.fem", surface, "--load", str(load), "--n", str(n),
+               "roughfriction.scripts.cli", "fem", surface, "--load", str(load), "--n", str(n),
                "--json", "--output", str(output)]
     if config is not None:
         command += ["--config", str(config)]
@@ -164,3 +161,32 @@ def path_errors(n: int, ranks: int, cases=HEADLINE_CASES, factor: float = PATH_F
         write_csv([kept[key] for key in sorted(kept)], table, PATH_COLUMNS)
         print(json.dumps(rows[-1]), file=sys.stderr, flush=True)
     return rows
+
+
+def profile_case(surface: str, load: float, n: int, comm,
+                 directory: Path = BENCH_DIR) -> tuple[dict, Path]:
+    """Profile one figure case (:func:`studies.paper.fem_case`) on every rank of ``comm``
+    (:func:`studies.profile.profile_run`) and write the profile, with the case and its summary,
+    as ``directory/profile_<case_stem>.json`` (rank 0); return it and its path.
+
+    Raises
+    ------
+    ConvergenceError
+        The run did not converge (after writing the profile).
+    """
+    from roughfriction.solver.run import stderr_progress
+    from roughfriction.studies.paper import fem_case
+    from roughfriction.studies.profile import profile_run
+
+    fem, profile = profile_run(fem_case(surface, load, n), comm, stderr_progress(comm))
+    summary = fem.result.summary()
+    fem.equilibrium.destroy()
+    profile |= {"case": {"surface": surface, "load_star": load, "n": n, "ranks": comm.size},
+                **{key: summary[key] for key in ("mu_s", "newton_iterations", "steps",
+                                                 "cut_steps", "converged")}}
+    path = Path(directory) / f"profile_{case_stem(surface, load, n, comm.size)}.json"
+    if comm.rank == 0:
+        atomic_write(path, lambda tmp: Path(tmp).write_text(json.dumps(profile, indent=1)))
+    if not summary["converged"]:
+        raise ConvergenceError(f"{fem.result.message} (profile written to {path})")
+    return profile, path
