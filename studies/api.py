@@ -10,12 +10,12 @@ is imported by :func:`run_fem` only.
 
 from __future__ import annotations
 
-import os
 import warnings
 from pathlib import Path
 
 from roughfriction.case import FemCase, Loading, MeshOptions, SolverOptions
 from roughfriction.errors import ConvergenceError, InputError
+from roughfriction.files import agreed, check_writable_file
 from roughfriction.geometry.generate import builtin_names, gaussian_surface, self_affine_surface
 from roughfriction.geometry.readers import load_surface
 from roughfriction.geometry.statistics import surface_statistics
@@ -142,7 +142,8 @@ def run_fem(case: FemCase, output=None, *, overwrite: bool = False, comm=None, p
     from roughfriction.studies.results_file import save_run
 
     comm = comm or MPI.COMM_WORLD
-    output = None if output is None else writable_output(Path(output), overwrite)
+    if output is not None:
+        output = agreed(comm, lambda: writable_output(Path(output), overwrite))
     fem = run(case, comm, progress, xdmf_directory)
     if output is not None:
         psi = surface_statistics(case.surface, case.material).psi
@@ -154,16 +155,9 @@ def run_fem(case: FemCase, output=None, *, overwrite: bool = False, comm=None, p
 
 
 def writable_output(path: Path, overwrite: bool) -> Path:
-    """``path``, once a results file can be written there (its folder is created) without
-    replacing one unless ``overwrite``; else InputError. The same on every rank."""
-    if path.is_dir():
-        raise InputError(f"results file {path} is a directory")
+    """``path``, once a results file can be written there without replacing one unless
+    ``overwrite`` (:func:`roughfriction.files.check_writable_file`); else InputError."""
+    check_writable_file(path)
     if path.exists() and not overwrite:
         raise InputError(f"results file {path} exists; pass overwrite=True to replace it")
-    try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-    except OSError as error:
-        raise InputError(f"cannot write results file {path}: {error.strerror}") from None
-    if not os.access(path.parent, os.W_OK):
-        raise InputError(f"cannot write results file {path}: its folder is not writable")
     return path

@@ -86,7 +86,7 @@ def test_bad_windows_are_refused_in_one_line(window, n, message):
 @pytest.mark.fem
 @pytest.mark.parametrize("where, message", [
     ("exists.h5", "exists; pass overwrite=True"),
-    ("a_file/run.h5", "cannot write results file"),
+    ("a_file/run.h5", "cannot write"),
     (".", "is a directory"),
 ])
 def test_an_output_that_cannot_be_written_is_refused_before_the_run(where, message, tmp_path,
