@@ -125,9 +125,10 @@ def case_from_args(args, surface: Surface, comm=None) -> FemCase:
             if comm is not None:
                 check_memory(n * (2 if getattr(args, "refine", False) else 1), mesh, comm)
         material = Material(**config.get("material", {}))
+        loading = Loading(float(load), normal_only=bool(setting("normal_only")))
         return FemCase(
             surface=meshed_surface(surface, n, getattr(args, "window", None), material, comm),
-            loading=Loading(float(load), normal_only=bool(setting("normal_only"))),
+            loading=loading,
             material=material,
             mesh=mesh,
             solver=SolverOptions(**solver),

@@ -114,6 +114,14 @@ def test_bad_loads():
             Loading(load)
 
 
+def test_an_implausible_load_is_refused_before_re_gridding(monkeypatch, capsys):
+    from roughfriction.scripts import fem
+
+    monkeypatch.setattr(fem, "meshed_surface", lambda *args: pytest.fail("re-gridded first"))
+    assert main(["G5", "--load", "1e9", "--n", "16"]) == 2
+    assert "F*" in capsys.readouterr().err
+
+
 def test_fem_grid_coarsens_keeps_and_refines():
     surface = builtin_surface("G5")
     assert surface_on_fem_grid(surface, None) is surface
