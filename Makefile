@@ -146,5 +146,11 @@ stress: setup
 	@$(MPIRUN) $(VENV)/bin/roughfriction bench stress --n $(N)
 	@mkdir -p docs/bench && cp results/bench/stress.csv results/bench/stress.md docs/bench/
 
+# The benchmark tables of README.md and docs/benchmarks.md, regenerated in place from the files
+# in docs/bench/ (studies/doc_tables.py; `--check` reports stale tables without writing).
+.PHONY: docs
+docs: setup
+	@$(PY) -m roughfriction.studies.doc_tables
+
 clean:
 	rm -rf results .cache .pytest_cache
