@@ -215,7 +215,7 @@ def load_sweep(name: str, runs):
     meshed = psi_fem[np.isfinite(psi_fem)]
     title = f"Static friction vs load, {surface_title(name)}, ψ = {psi:.3g}"
     if meshed.size and abs(meshed[0] / psi - 1.0) > PSI_TOLERANCE:
-        title += f" (FEM meshed ψ = {meshed[0]:.3g})"
+        title += f"\n(FEM meshed ψ = {meshed[0]:.3g})"
     ax.set_title(title)
     ax.legend(fontsize=7)
     notes = ["" if valid else "outside its range" for valid in let_valid]

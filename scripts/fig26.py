@@ -7,11 +7,4 @@ from roughfriction.studies.paper import LOAD_SWEEP_SURFACES
 
 SURFACE = LOAD_SWEEP_SURFACES[0]
 fem_cases = partial(load_sweep_cases, SURFACE)
-
-
-def make(runs):
-    """The figure, with the meshed-psi note of its title on a second line (fits the width)."""
-    fig, columns = load_sweep(SURFACE, runs)
-    ax = fig.axes[0]
-    ax.set_title(ax.get_title().replace(" (FEM meshed", "\n(FEM meshed"))
-    return fig, columns
+make = partial(load_sweep, SURFACE)
