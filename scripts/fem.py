@@ -57,6 +57,7 @@ def add_fem_arguments(parser: argparse.ArgumentParser) -> None:
                         "its mu_s with an error estimate (mu_s_coarse, mu_s_extrapolated, "
                         "mu_s_error; see docs/verification.md)")
     parser.add_argument("--xdmf", metavar="DIR", help="write fields to DIR/fields.xdmf")
+    parser.add_argument("--msh", metavar="PATH", help="write the block as a gmsh mesh file (.msh)")
     parser.add_argument("--output", metavar="FILE",
                         help="HDF5 results file (default results/fem/<surface>_F<load>_N<n>.h5)")
     parser.add_argument("--config", metavar="TOML",
@@ -172,6 +173,7 @@ def run_fem(args) -> dict:
     from mpi4py import MPI
     from roughfriction.geometry.statistics import surface_statistics
     from roughfriction.scripts.cli import surface_from_args
+    from roughfriction.solver.block import write_block_msh
     from roughfriction.solver.results import save_run
     from roughfriction.solver.run import run
 
@@ -179,6 +181,8 @@ def run_fem(args) -> dict:
     case = case_from_args(args, surface_from_args(args), comm)
     output = Path(args.output) if args.output else default_output(case)
     meshed = {"psi_meshed": surface_statistics(case.surface, case.material).psi}
+    if args.msh:
+        write_block_msh(case.surface.heights, case.surface.spacing, case.mesh, args.msh, comm)
     outcome = run(case, comm, xdmf_directory=args.xdmf)
     if not args.refine:
         save_run(output, case, outcome, comm, extra=meshed)
