@@ -96,6 +96,32 @@ def rough(n, rms, seed=0):
     return np.random.default_rng(seed).normal(0.0, rms, (n, n))
 
 
+FEM_STACK = {"dolfinx", "ufl", "basix", "ffcx", "petsc4py", "mpi4py"}
+
+
+def imported_packages(source: str) -> set[str]:
+    """Top-level packages a Python source imports (anywhere in it, functions included)."""
+    import ast
+
+    names = set()
+    for node in ast.walk(ast.parse(source)):
+        if isinstance(node, ast.Import):
+            names |= {alias.name for alias in node.names}
+        elif isinstance(node, ast.ImportFrom) and node.module and not node.level:
+            names.add(node.module)
+    return {name.split(".")[0] for name in names}
+
+
+def test_geometry_uses_neither_the_fem_library_nor_mpi():
+    """geometry/ sits below the solver: the dolfinx mesh is made in solver/block.py."""
+    from pathlib import Path
+
+    import roughfriction.geometry
+
+    for source in Path(roughfriction.geometry.__file__).parent.glob("*.py"):
+        assert not imported_packages(source.read_text()) & FEM_STACK, source.name
+
+
 def test_block_nodes_sit_on_the_periodic_height_map():
     n = 8
     heights = rough(n, 0.2 * SPACING)
