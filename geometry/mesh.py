@@ -447,11 +447,14 @@ def write_msh(nodes: BlockNodes, path: str | Path) -> Path:
         partial.write_bytes(b"")
     except OSError as error:
         raise InputError(f"cannot write the mesh to {path}: {error.strerror}") from None
-    with gmsh_model() as gmsh:
-        add_block_to_gmsh(gmsh, nodes)
-        gmsh.option.setNumber("Mesh.Binary", 1)
-        gmsh.write(str(partial))
-    if partial.stat().st_size == 0:
-        raise InputError(f"gmsh could not write the mesh to {path}")
-    partial.replace(path)
+    try:
+        with gmsh_model() as gmsh:
+            add_block_to_gmsh(gmsh, nodes)
+            gmsh.option.setNumber("Mesh.Binary", 1)
+            gmsh.write(str(partial))
+        if partial.stat().st_size == 0:
+            raise InputError(f"gmsh could not write the mesh to {path}")
+        partial.replace(path)
+    finally:
+        partial.unlink(missing_ok=True)
     return path
