@@ -1,4 +1,5 @@
 """Rough surfaces: read, generate, detrend, make periodic, interpolate, statistics; gmsh meshing.
 
-Everything here but ``geometry.mesh`` imports without dolfinx or gmsh.
+Everything here imports without dolfinx, gmsh or MPI; ``geometry.mesh`` needs gmsh to build
+its model, and nothing here uses dolfinx or MPI (the solver turns the model into a dolfinx mesh).
 """

@@ -23,24 +23,32 @@ bilinear interpolation in the same reduction u = P u_red that imposes periodicit
 displacement of the coarse face. Below the surface zone the field varies on the scale of the
 depth, not of h, so this removes more than half of the dofs at N >= 64 (numbers in the README).
 
-The flat structured block is built on rank 0 and distributed by ``dolfinx.mesh.create_mesh`` in
-fixed x-slabs (``slab_partitioner``: the same partition at every run); the surface heights are
-then applied by moving node z-coordinates in place (the paper's moving-node method), and every
-cell's Jacobian is checked.
+gmsh holds the mesh: the structured layers and the 2:1 levels are numbered here in NumPy
+(:func:`structured_block`), moved onto the height map (:func:`block_nodes`, the paper's
+moving-node method) and put into a gmsh model as discrete entities (:func:`add_block_to_gmsh`:
+the nodes and hexahedra, and a physical group per side), which is written to a ``.msh`` file on
+request (:func:`write_msh`) and read by dolfinx through ``dolfinx.io.gmshio``
+(``solver/block.py``). gmsh's own meshers cannot make this block: its structured meshes
+(transfinite volumes, extrusion in layers) are conforming, one lateral resolution per volume,
+and joining two resolutions conformingly takes transition cells (recombination leaves prisms
+and pyramids, which dolfinx 0.5 refuses), while the 2:1 levels here are non-conforming on
+purpose (their hanging nodes are tied by the reduction, above). This module is NumPy and gmsh
+only; the dolfinx side is in the solver.
 """
 
 from __future__ import annotations
 
 import math
+from contextlib import contextmanager
 from dataclasses import dataclass
 from enum import IntEnum
+from pathlib import Path
 
 import numpy as np
 from roughfriction.case import MeshOptions
 from roughfriction.errors import InputError
 
-# dolfinx and mpi4py are imported where the block is built, so that this module (and the
-# command line that builds it) import without them.
+# gmsh is imported where the model is built, so that this module imports without it.
 
 #: Smallest accepted ratio of a moved cell's corner Jacobian to the flat cell's [-].
 MIN_JACOBIAN_RATIO = 0.1
@@ -215,44 +223,6 @@ def interpolation_masters(grid: np.ndarray, layer_stride: np.ndarray
     return masters, np.where(used, weight[:, None], 0.0)
 
 
-def build_block(heights: np.ndarray, spacing: float, options: MeshOptions, comm) -> Block:
-    """Mesh the periodic block under a height map and move its surface onto the heights.
-
-    Parameters
-    ----------
-    heights : numpy.ndarray
-        Surface heights [m], shape (N, N), ``heights[i, j]`` at x = i h, y = j h; the block's
-        period is N h and node N repeats node 0 (periodic closure). The mean is removed.
-    spacing : float
-        Grid spacing h [m].
-    options : MeshOptions
-        Layering.
-    comm : mpi4py.MPI.Comm
-        Communicator the mesh is distributed over.
-
-    Returns
-    -------
-    Block
-
-    Raises
-    ------
-    InputError
-        If a moved cell is inverted or too distorted (names the cells and a layer count that
-        fixes it).
-    """
-    heights = np.asarray(heights, dtype=float)
-    n = heights.shape[0]
-    layer_z, layer_stride = layer_layout(n, spacing, options)
-    mesh = _flat_hex_block(n, spacing, layer_z, layer_stride, comm)
-    grid_index = _grid_index(mesh.geometry.x, spacing, layer_z)
-    flat_x = mesh.geometry.x.copy()
-    _move_to_surface(mesh.geometry.x, grid_index, heights - heights.mean(), len(layer_z) - 1,
-                     options.blend_layers)
-    block = Block(mesh, grid_index, layer_z, layer_stride, n, spacing)
-    check_jacobians(block, flat_x, heights - heights.mean(), options.blend_layers)
-    return block
-
-
 def structured_block(n: int, layer_stride: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Nodes and hexahedra of the layered block, in grid units.
 
@@ -290,112 +260,10 @@ def structured_block(n: int, layer_stride: np.ndarray) -> tuple[np.ndarray, np.n
     return grid, np.concatenate(hexahedra)
 
 
-def _flat_hex_block(n: int, spacing: float, layer_z: np.ndarray, layer_stride: np.ndarray,
-                    comm):
-    """Flat structured hexahedral block [0, N h]^2 x [-H, 0], distributed over comm.
-
-    The nodes and hexahedra of :func:`structured_block` (on rank 0) are handed to dolfinx with
-    :func:`slab_partitioner`, which gives every rank the columns of cells of one x-slab: the
-    same partition at every run (dolfinx 0.5's graph partitioner is not repeatable, and a
-    different partition changes the round-off of every solve). Returns the mesh.
-    """
-    import ufl
-    from dolfinx import cpp
-    from dolfinx.cpp.io import perm_gmsh
-    from dolfinx.mesh import create_mesh
-
-    if comm.rank == 0:
-        grid, hexahedra = structured_block(n, layer_stride)
-        # x-major cell order: contiguous ranges of cells are x-slabs of whole columns
-        corner = grid[hexahedra[:, 0]]
-        hexahedra = hexahedra[np.lexsort((corner[:, 2], corner[:, 1], corner[:, 0]))]
-        coordinates = np.column_stack([grid[:, :2] * spacing, layer_z[grid[:, 2]]])
-        cells = hexahedra[:, perm_gmsh(cpp.mesh.CellType.hexahedron, 8)]
-    else:
-        coordinates, cells = np.empty((0, 3)), np.empty((0, 8), dtype=np.int64)
-    domain = ufl.Mesh(ufl.VectorElement("Lagrange", ufl.hexahedron, 1))
-    return create_mesh(comm, cells, coordinates, domain,
-                       partitioner=cpp.mesh.create_cell_partitioner(slab_partitioner))
-
-
-def slab_partitioner(comm, parts: int, graph, ghosting: bool):
-    """Destination ranks of the cells of a distributed dual graph: cell g of G goes to rank
-    g parts // G, and with ``ghosting`` also to the ranks of its neighbours (a graph
-    partitioner for ``dolfinx.cpp.mesh.create_cell_partitioner``)."""
-    from dolfinx.cpp.graph import AdjacencyList_int32
-
-    offsets = np.asarray(graph.offsets)
-    local = len(offsets) - 1
-    first = comm.exscan(local) or 0
-    total = comm.allreduce(local)
-    owner = ((first + np.arange(local, dtype=np.int64)) * parts // total).astype(np.int32)
-    if not ghosting:
-        return AdjacencyList_int32(owner)
-    # (cell, rank) pairs: its owner first, then the other ranks owning a neighbour
-    neighbour_owner = (np.asarray(graph.array, dtype=np.int64) * parts // total).astype(np.int32)
-    cell = np.repeat(np.arange(local), np.diff(offsets))
-    ghost = np.unique(np.column_stack([cell, neighbour_owner])[neighbour_owner != owner[cell]],
-                      axis=0).reshape(-1, 2)
-    pairs = np.concatenate([np.column_stack([np.arange(local), owner]), ghost])
-    pairs = pairs[np.argsort(pairs[:, 0], kind="stable")]
-    counts = np.bincount(pairs[:, 0], minlength=local)
-    return AdjacencyList_int32(pairs[:, 1].astype(np.int32),
-                               np.concatenate([[0], np.cumsum(counts)]).astype(np.int32))
-
-
-def boundary_facet_tags(block: Block):
-    """Tag the block's boundary facets with :class:`Boundary` values, by the grid index of their
-    vertices (a facet is on a side when all its vertices are).
-
-    The mesh's facets are computed here, not when the block is built: the solver needs none,
-    and dolfinx 0.5 takes minutes computing them on 2 ranks for a coarsened block at N = 64
-    (measured: not finished after 40 s; 0.5 s at N = 32).
-
-    Returns
-    -------
-    dolfinx.mesh.MeshTags
-    """
-    from dolfinx import mesh as dolfinx_mesh
-    from dolfinx.cpp.mesh import entities_to_geometry
-
-    mesh = block.mesh
-    mesh.topology.create_entities(2)
-    mesh.topology.create_connectivity(2, 3)
-    facets = dolfinx_mesh.exterior_facet_indices(mesh.topology)
-    facet_nodes = entities_to_geometry(mesh._mesh, 2, facets, False)
-    i, j, k = (block.grid_index[facet_nodes][..., axis] for axis in range(3))
-    sides = {Boundary.CONTACT: k == block.num_layers, Boundary.BOTTOM: k == 0,
-             Boundary.X0: i == 0, Boundary.XL: i == block.n,
-             Boundary.Y0: j == 0, Boundary.YL: j == block.n}
-    values = np.zeros(len(facets), dtype=np.int32)
-    for side, on_side in sides.items():
-        values[on_side.all(axis=1)] = int(side)
-    tagged = values > 0
-    return dolfinx_mesh.meshtags(mesh, 2, facets[tagged].astype(np.int32), values[tagged])
-
-
-def _grid_index(x: np.ndarray, spacing: float, layer_z: np.ndarray) -> np.ndarray:
-    """(i, j, k) of flat node coordinates x [m]: lateral grid indices and node layer."""
-    ij = np.rint(x[:, :2] / spacing).astype(np.int64)
-    thickness = np.diff(layer_z).min()
-    k = np.searchsorted(layer_z, x[:, 2] - 0.25 * thickness)
-    if not np.allclose(layer_z[k], x[:, 2], rtol=0, atol=1e-6 * thickness):
-        raise RuntimeError("mesh nodes are off the structured layers")
-    return np.column_stack([ij, k])
-
-
 def blend_weight(layer: np.ndarray, num_layers: int, blend_layers: int) -> np.ndarray:
     """Fraction of the surface height applied to node layer ``layer`` [-]: 1 at the top, 0 at
     and below ``blend_layers`` layers under it, linear in between."""
     return np.clip(1.0 - (num_layers - layer) / blend_layers, 0.0, 1.0)
-
-
-def _move_to_surface(x: np.ndarray, grid_index: np.ndarray, heights: np.ndarray,
-                     num_layers: int, blend_layers: int) -> None:
-    """Add the blended surface height to the z of every node, in place on x [m]."""
-    n = heights.shape[0]
-    surface_height = heights[grid_index[:, 0] % n, grid_index[:, 1] % n]
-    x[:, 2] += blend_weight(grid_index[:, 2], num_layers, blend_layers) * surface_height
 
 
 def corner_jacobians(x: np.ndarray, cell_nodes: np.ndarray) -> np.ndarray:
@@ -424,51 +292,6 @@ def corner_jacobians(x: np.ndarray, cell_nodes: np.ndarray) -> np.ndarray:
     return np.linalg.det(jacobian).reshape(-1, 8)
 
 
-def check_jacobians(block: Block, flat_x: np.ndarray, heights: np.ndarray,
-                    blend_layers: int) -> None:
-    """Refuse inverted or badly distorted cells after moving the surface nodes.
-
-    Every owned cell's corner Jacobians are compared with the flat block's; a ratio below
-    :data:`MIN_JACOBIAN_RATIO` fails on all ranks with one message that names the cells and
-    the number of blend layers that would fix them.
-
-    Parameters
-    ----------
-    block : Block
-        The moved block.
-    flat_x : numpy.ndarray
-        Node coordinates before moving [m].
-    heights : numpy.ndarray
-        Mean-free surface heights [m], (N, N).
-    blend_layers : int
-        Blend layers used [-].
-    """
-    from mpi4py import MPI
-
-    mesh = block.mesh
-    num_cells = mesh.topology.index_map(3).size_local
-    cell_nodes = mesh.geometry.dofmap.array.reshape(-1, 8)[:num_cells]
-    ratio = (corner_jacobians(mesh.geometry.x, cell_nodes)
-             / corner_jacobians(flat_x, cell_nodes)).min(axis=1)
-    bad = np.flatnonzero(ratio < MIN_JACOBIAN_RATIO)
-    comm = mesh.comm
-    num_bad = comm.allreduce(len(bad), op=MPI.SUM)
-    if num_bad == 0:
-        return
-    worst = comm.allreduce(float(ratio.min()), op=MPI.MIN)
-    examples = comm.allgather([tuple(int(v) for v in block.grid_index[cell_nodes[c, 0]])
-                               for c in bad[:3]])
-    examples = [e for rank_examples in examples for e in rank_examples][:3]
-    needed = blend_layers_needed(heights, block.spacing)
-    state = "inverted" if worst <= 0 else "distorted"
-    raise InputError(
-        f"{num_bad} mesh cells {state} by the surface heights (worst Jacobian ratio "
-        f"{worst:.3g}, cells at (i, j, layer) {examples}); the deepest valley "
-        f"{-float(heights.min()):.3g} m needs >= {max(needed, blend_layers + 1)} blend layers "
-        f"(now {blend_layers})"
-    )
-
-
 def blend_layers_needed(heights: np.ndarray, spacing: float) -> int:
     """Blend layers that keep every cell's Jacobian ratio above :data:`MIN_JACOBIAN_RATIO`
     under the deepest valley (a sufficient count): ceil(depth / ((1 - ratio) h)) [-].
@@ -482,3 +305,156 @@ def blend_layers_needed(heights: np.ndarray, spacing: float) -> int:
     """
     deepest_valley = float(np.mean(heights) - np.min(heights))
     return math.ceil(deepest_valley / ((1.0 - MIN_JACOBIAN_RATIO) * spacing))
+
+
+# --- the block as a gmsh model ----------------------------------------------------------------
+
+#: gmsh element types: 4-node quadrangle and 8-node hexahedron.
+GMSH_QUADRANGLE, GMSH_HEXAHEDRON = 3, 5
+#: Tag of the block's volume entity and of its physical group in the gmsh model.
+BLOCK_VOLUME = 1
+#: The outward face of a hexahedron (gmsh node order: bottom face counter-clockwise seen from
+#: above, then the top face) on each side of the block.
+SIDE_FACES = {Boundary.CONTACT: (4, 5, 6, 7), Boundary.BOTTOM: (0, 3, 2, 1),
+              Boundary.X0: (0, 4, 7, 3), Boundary.XL: (1, 2, 6, 5),
+              Boundary.Y0: (0, 1, 5, 4), Boundary.YL: (2, 3, 7, 6)}
+
+
+@dataclass(frozen=True, eq=False)
+class BlockNodes:
+    """The whole block on one process, its nodes on the height map (before distribution).
+
+    Attributes
+    ----------
+    grid : numpy.ndarray
+        (i, j, k) of every node, shape (num_nodes, 3) (:func:`structured_block`'s numbering).
+    coordinates : numpy.ndarray
+        Node coordinates [m], shape (num_nodes, 3): x = i h, y = j h, z = layer_z[k] plus the
+        blended surface height (:func:`blend_weight`).
+    hexahedra : numpy.ndarray
+        Node numbers of each cell in gmsh order, shape (num_cells, 8), x-major: contiguous
+        ranges of cells are x-slabs of whole columns.
+    layer_z, layer_stride : numpy.ndarray
+        As in :class:`Block`.
+    n : int
+        Surface cells per side [-].
+    spacing : float
+        Grid spacing h [m].
+    """
+
+    grid: np.ndarray
+    coordinates: np.ndarray
+    hexahedra: np.ndarray
+    layer_z: np.ndarray
+    layer_stride: np.ndarray
+    n: int
+    spacing: float
+
+
+def block_nodes(heights: np.ndarray, spacing: float, options: MeshOptions) -> BlockNodes:
+    """The layered block under a height map, moved onto it (the paper's moving-node method).
+
+    Parameters
+    ----------
+    heights : numpy.ndarray
+        Surface heights [m], shape (N, N), ``heights[i, j]`` at x = i h, y = j h; node N
+        repeats node 0 (periodic closure). The mean is removed.
+    spacing : float
+        Grid spacing h [m].
+    options : MeshOptions
+        Layering.
+    """
+    heights = np.asarray(heights, dtype=float)
+    n = heights.shape[0]
+    layer_z, layer_stride = layer_layout(n, spacing, options)
+    grid, hexahedra = structured_block(n, layer_stride)
+    corner = grid[hexahedra[:, 0]]
+    hexahedra = hexahedra[np.lexsort((corner[:, 2], corner[:, 1], corner[:, 0]))]
+    coordinates = np.column_stack([grid[:, :2] * spacing, layer_z[grid[:, 2]]])
+    i, j, k = grid.T
+    surface_height = (heights - heights.mean())[i % n, j % n]
+    coordinates[:, 2] += blend_weight(k, len(layer_z) - 1, options.blend_layers) * surface_height
+    return BlockNodes(grid, coordinates, hexahedra, layer_z, layer_stride, n, spacing)
+
+
+def boundary_quadrangles(nodes: BlockNodes) -> dict[Boundary, np.ndarray]:
+    """The outward cell faces on each side of the block: node numbers, shape (faces, 4)."""
+    low = nodes.grid[nodes.hexahedra[:, 0]]  # (i, j, k) of each cell's lowest corner ...
+    high = nodes.grid[nodes.hexahedra[:, 6]]  # ... and of the opposite one
+    on_side = {Boundary.CONTACT: high[:, 2] == len(nodes.layer_z) - 1,
+               Boundary.BOTTOM: low[:, 2] == 0,
+               Boundary.X0: low[:, 0] == 0, Boundary.XL: high[:, 0] == nodes.n,
+               Boundary.Y0: low[:, 1] == 0, Boundary.YL: high[:, 1] == nodes.n}
+    return {side: nodes.hexahedra[cells][:, SIDE_FACES[side]] for side, cells in on_side.items()}
+
+
+@contextmanager
+def gmsh_model(name: str = "block"):
+    """A fresh gmsh session holding one empty model, finalised on exit (yields gmsh)."""
+    import gmsh
+
+    gmsh.initialize(readConfigFiles=False)
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.model.add(name)
+        yield gmsh
+    finally:
+        gmsh.finalize()
+
+
+def add_block_to_gmsh(gmsh, nodes: BlockNodes) -> None:
+    """Put the block in gmsh's current model as discrete entities: one volume holding every
+    node (tag = node number + 1) and hexahedron (tag = cell number + 1, in the order of
+    ``nodes.hexahedra``), one surface per side holding its quadrangles, and a physical group for
+    each (the volume "block", tag :data:`BLOCK_VOLUME`; the sides named and tagged as
+    :class:`Boundary`)."""
+    model = gmsh.model
+    sides = boundary_quadrangles(nodes)
+    for side in sides:
+        model.addDiscreteEntity(2, int(side))
+    model.addDiscreteEntity(3, BLOCK_VOLUME, [int(side) for side in sides])
+    model.mesh.addNodes(3, BLOCK_VOLUME, np.arange(1, len(nodes.grid) + 1),
+                        nodes.coordinates.ravel())
+    model.mesh.addElementsByType(BLOCK_VOLUME, GMSH_HEXAHEDRON,
+                                 np.arange(1, len(nodes.hexahedra) + 1),
+                                 nodes.hexahedra.ravel() + 1)
+    next_tag = len(nodes.hexahedra) + 1
+    for side, quadrangles in sides.items():
+        model.mesh.addElementsByType(int(side), GMSH_QUADRANGLE,
+                                     np.arange(next_tag, next_tag + len(quadrangles)),
+                                     quadrangles.ravel() + 1)
+        next_tag += len(quadrangles)
+        model.setPhysicalName(2, model.addPhysicalGroup(2, [int(side)], int(side)),
+                              side.name.lower())
+    model.setPhysicalName(3, model.addPhysicalGroup(3, [BLOCK_VOLUME], BLOCK_VOLUME), "block")
+
+
+def write_msh(nodes: BlockNodes, path: str | Path) -> Path:
+    """Write the block as a gmsh mesh file (binary MSH 4.1, whose coordinates read back exactly
+    where text rounds the last digit; ``gmsh PATH`` opens it): written beside ``path`` and
+    renamed onto it, so a failed write leaves no partial file under that name.
+
+    Raises
+    ------
+    InputError
+        If ``path`` does not end in ``.msh`` or cannot be written.
+    """
+    path = Path(path)
+    if path.suffix != ".msh":
+        raise InputError(f"a gmsh mesh file name ends in .msh, got {path}")
+    partial = path.with_name(f".{path.stem}.partial.msh")  # gmsh picks the format by suffix
+    try:
+        partial.write_bytes(b"")
+    except OSError as error:
+        raise InputError(f"cannot write the mesh to {path}: {error.strerror}") from None
+    try:
+        with gmsh_model() as gmsh:
+            add_block_to_gmsh(gmsh, nodes)
+            gmsh.option.setNumber("Mesh.Binary", 1)
+            gmsh.write(str(partial))
+        if partial.stat().st_size == 0:
+            raise InputError(f"gmsh could not write the mesh to {path}")
+        partial.replace(path)
+    finally:
+        partial.unlink(missing_ok=True)
+    return path

@@ -68,6 +68,7 @@ def add_fem_arguments(parser: argparse.ArgumentParser) -> None:
                         "mu_s_error; see docs/verification.md)")
     parser.add_argument("--xdmf", metavar="DIR",
                         help="write fields to DIR/fields.xdmf (and DIR/fields.h5)")
+    parser.add_argument("--msh", metavar="PATH", help="write the block as a gmsh mesh file (.msh)")
     parser.add_argument("--output", metavar="FILE",
                         help="HDF5 results file (default results/fem/<surface>_F<load>_N<n>"
                         "[_<options>]_<digest>.h5, the digest of everything that defines the "
@@ -256,7 +257,8 @@ def run_fem(args) -> dict:
     from mpi4py import MPI
     from roughfriction.geometry.statistics import surface_statistics
     from roughfriction.scripts.surface_args import surface_from_args
-    from roughfriction.solver.run import run
+    from roughfriction.solver.block import write_block_msh
+    from roughfriction.solver.run import run, with_blend_layers_needed
 
     comm = MPI.COMM_WORLD
     case = case_from_args(args, agreed(comm, lambda: surface_from_args(args)), comm)
@@ -264,6 +266,10 @@ def run_fem(args) -> dict:
     agreed(comm, lambda: outputs.check(args.overwrite))
     output = outputs.results
     meshed = {"psi_meshed": surface_statistics(case.surface, case.material).psi}
+    if args.msh:
+        meshed_case = with_blend_layers_needed(case, lambda note: None)  # the run says it
+        write_block_msh(case.surface.heights, case.surface.spacing, meshed_case.mesh, args.msh,
+                        comm)
     outcome = run(case, comm, xdmf_directory=outputs.fields)
     if not args.refine:
         _save(output, case, outcome, comm, meshed)

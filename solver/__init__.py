@@ -4,6 +4,7 @@ pressed and slid by a rigid flat.
 Read in this order (the paper's procedure):
 
 * ``run``          build the block, preload, slide to inception, report
+* ``block``        the dolfinx mesh of the gmsh block (gmshio, fixed slab partition)
 * ``stepping``     load path: adaptive preload and tangential steps, sliding inception
 * ``equilibrium``  Newton on the reduced, force-controlled (bordered) system; Uzawa updates
 * ``solid``        trilinear hexahedra, SRI, weak forms; ``plasticity`` the J2 return map
@@ -14,6 +15,6 @@ Read in this order (the paper's procedure):
 * ``results``      step records and summary; ``progress`` progress records; ``fields`` XDMF
 
 The case (surface, loading, material, mesh and solver options) is ``roughfriction.case.FemCase``;
-the block is meshed by ``roughfriction.geometry.mesh``. ``plasticity``, ``results`` and
-``progress`` import without dolfinx.
+the block is laid out and held in gmsh by ``roughfriction.geometry.mesh``. ``plasticity``,
+``results`` and ``progress`` import without dolfinx.
 """

@@ -15,13 +15,8 @@ import numpy as np
 from mpi4py import MPI
 from roughfriction.case import FemCase, Loading, MeshOptions
 from roughfriction.errors import InputError
-from roughfriction.geometry.mesh import (
-    Block,
-    blend_layers_needed,
-    build_block,
-    estimated_memory_gb,
-    mesh_size,
-)
+from roughfriction.geometry.mesh import Block, blend_layers_needed, estimated_memory_gb, mesh_size
+from roughfriction.solver.block import build_block
 from roughfriction.solver.contact import ContactResponse, RigidFlat
 from roughfriction.solver.equilibrium import Equilibrium
 from roughfriction.solver.fields import FieldWriter

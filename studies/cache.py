@@ -52,7 +52,7 @@ DEFAULT_RUNS = Path("results/runs")
 #: module is classified before it lands.
 PHYSICS_MODULES = (
     "roughfriction.material", "roughfriction.case", "roughfriction.geometry.surface",
-    "roughfriction.geometry.mesh", "roughfriction.solver.contact",
+    "roughfriction.geometry.mesh", "roughfriction.solver.block", "roughfriction.solver.contact",
     "roughfriction.solver.equilibrium", "roughfriction.solver.linear",
     "roughfriction.solver.periodic", "roughfriction.solver.plasticity",
     "roughfriction.solver.solid", "roughfriction.solver.stepping", "roughfriction.solver.run",

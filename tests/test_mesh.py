@@ -1,4 +1,9 @@
-"""The hexahedral block: layering, surface heights on the nodes, tags, Jacobian checks."""
+"""The hexahedral block: layering, surface heights on the nodes, the gmsh model and its .msh
+file, Jacobians, the memory estimate."""
+
+import subprocess
+import sys
+from pathlib import Path
 
 import dolfinx  # noqa: E402, F401  (an install without the FEM fails here)
 import numpy as np
@@ -6,16 +11,19 @@ import pytest
 from mpi4py import MPI  # noqa: E402
 from roughfriction.errors import InputError  # noqa: E402
 from roughfriction.geometry.mesh import (  # noqa: E402
+    GMSH_HEXAHEDRON,
+    GMSH_QUADRANGLE,
     Boundary,
     MeshOptions,
-    boundary_facet_tags,
-    build_block,
+    block_nodes,
+    boundary_quadrangles,
     corner_jacobians,
     estimated_memory_gb,
+    gmsh_model,
     interpolation_masters,
     layer_layout,
-    slab_partitioner,
     structured_block,
+    write_msh,
 )
 from roughfriction.solver.run import check_memory  # noqa: E402
 
@@ -88,42 +96,107 @@ def rough(n, rms, seed=0):
     return np.random.default_rng(seed).normal(0.0, rms, (n, n))
 
 
+FEM_STACK = {"dolfinx", "ufl", "basix", "ffcx", "petsc4py", "mpi4py"}
+
+
+def imported_packages(source: str) -> set[str]:
+    """Top-level packages a Python source imports (anywhere in it, functions included)."""
+    import ast
+
+    names = set()
+    for node in ast.walk(ast.parse(source)):
+        if isinstance(node, ast.Import):
+            names |= {alias.name for alias in node.names}
+        elif isinstance(node, ast.ImportFrom) and node.module and not node.level:
+            names.add(node.module)
+    return {name.split(".")[0] for name in names}
+
+
+def test_geometry_uses_neither_the_fem_library_nor_mpi():
+    """geometry/ sits below the solver: the dolfinx mesh is made in solver/block.py."""
+    from pathlib import Path
+
+    import roughfriction.geometry
+
+    for source in Path(roughfriction.geometry.__file__).parent.glob("*.py"):
+        assert not imported_packages(source.read_text()) & FEM_STACK, source.name
+
+
 def test_block_nodes_sit_on_the_periodic_height_map():
     n = 8
     heights = rough(n, 0.2 * SPACING)
-    block = build_block(heights, SPACING, MeshOptions(), MPI.COMM_WORLD)
-    x, (i, j, k) = block.mesh.geometry.x, block.grid_index.T
-    top = k == block.num_layers
+    nodes = block_nodes(heights, SPACING, MeshOptions())
+    x, (i, j, k) = nodes.coordinates, nodes.grid.T
+    num_layers = len(nodes.layer_z) - 1
+    top = k == num_layers
     expected = heights - heights.mean()
     np.testing.assert_allclose(x[top, 2], expected[i[top] % n, j[top] % n], rtol=0, atol=1e-18)
     np.testing.assert_allclose(x[:, 0], i * SPACING, atol=1e-18)
-    np.testing.assert_allclose(x[k == 0, 2], -block.depth)
-    below_blend = k <= block.num_layers - MeshOptions().blend_layers
-    np.testing.assert_allclose(x[below_blend, 2], block.layer_z[k[below_blend]], atol=1e-18)
-    cells = block.mesh.topology.index_map(3).size_global
-    assert cells == sum((n // stride) ** 2 for stride in block.layer_stride)
+    np.testing.assert_allclose(x[k == 0, 2], nodes.layer_z[0])
+    below_blend = k <= num_layers - MeshOptions().blend_layers
+    np.testing.assert_allclose(x[below_blend, 2], nodes.layer_z[k[below_blend]], atol=1e-18)
+    assert len(nodes.hexahedra) == sum((n // stride) ** 2 for stride in nodes.layer_stride)
+    low_i = nodes.grid[nodes.hexahedra[:, 0], 0]
+    assert np.all(np.diff(low_i) >= 0)  # x-major: contiguous cells form x-slabs
 
 
-def test_facet_tags_cover_each_side():
+def test_boundary_quadrangles_cover_each_side_and_face_out():
     n = 8
-    block = build_block(rough(n, 0.1 * SPACING), SPACING, MeshOptions(), MPI.COMM_WORLD)
-    assert set(block.layer_stride) == {1, 2}  # coarsened once
-    tags = boundary_facet_tags(block)
-    counts = {tag: MPI.COMM_WORLD.allreduce(int(np.count_nonzero(tags.values == tag)))
-              for tag in Boundary}
-    assert counts[Boundary.CONTACT] == n * n
-    assert counts[Boundary.BOTTOM] == (n // block.layer_stride[0]) ** 2
-    for side in (Boundary.X0, Boundary.XL, Boundary.Y0, Boundary.YL):
-        assert counts[side] == sum(n // stride for stride in block.layer_stride)
+    nodes = block_nodes(np.zeros((n, n)), SPACING, MeshOptions())
+    assert set(nodes.layer_stride) == {1, 2}  # coarsened once
+    sides = boundary_quadrangles(nodes)
+    assert len(sides[Boundary.CONTACT]) == n * n
+    assert len(sides[Boundary.BOTTOM]) == (n // nodes.layer_stride[0]) ** 2
+    outward = {Boundary.CONTACT: (0, 0, 1), Boundary.BOTTOM: (0, 0, -1), Boundary.X0: (-1, 0, 0),
+               Boundary.XL: (1, 0, 0), Boundary.Y0: (0, -1, 0), Boundary.YL: (0, 1, 0)}
+    for side, quadrangles in sides.items():
+        if side not in (Boundary.CONTACT, Boundary.BOTTOM):
+            assert len(quadrangles) == sum(n // stride for stride in nodes.layer_stride)
+        corner = nodes.coordinates[quadrangles]  # (faces, 4, 3)
+        normal = np.cross(corner[:, 2] - corner[:, 0], corner[:, 3] - corner[:, 1])
+        normal /= np.linalg.norm(normal, axis=1)[:, None]
+        np.testing.assert_allclose(normal, np.broadcast_to(outward[side], normal.shape), atol=1e-12)
 
 
-def test_inverted_cells_are_refused_with_a_layer_count_that_fixes_them():
-    heights = rough(8, 2.0 * SPACING, seed=3)  # valleys several grid spacings deep
-    with pytest.raises(InputError, match="inverted") as error:
-        build_block(heights, SPACING, MeshOptions(blend_layers=2), MPI.COMM_WORLD)
-    needed = int(str(error.value).split("needs >= ")[1].split()[0])
-    assert needed > 2
-    build_block(heights, SPACING, MeshOptions(blend_layers=needed), MPI.COMM_WORLD)
+def read_msh(path):
+    """Node coordinates [m] in tag order, hexahedra (0-based), and the quadrangles of each named
+    physical group, of a .msh file read by a fresh gmsh session."""
+    with gmsh_model() as gmsh:
+        gmsh.open(str(path))
+        tags, coordinates, _ = gmsh.model.mesh.getNodes()
+        coordinates = coordinates.reshape(-1, 3)[np.argsort(tags)]
+        _, hexahedra = gmsh.model.mesh.getElementsByType(GMSH_HEXAHEDRON)
+        groups = {}
+        for dim, tag in gmsh.model.getPhysicalGroups():
+            name = gmsh.model.getPhysicalName(dim, tag)
+            entity, = gmsh.model.getEntitiesForPhysicalGroup(dim, tag)
+            if dim == 2:
+                _, quadrangles = gmsh.model.mesh.getElementsByType(GMSH_QUADRANGLE, entity)
+                groups[name] = quadrangles.reshape(-1, 4).astype(np.int64) - 1
+            else:
+                groups[name] = None
+    return coordinates, hexahedra.reshape(-1, 8).astype(np.int64) - 1, groups
+
+
+def test_the_msh_file_holds_the_moved_block_and_its_named_sides(tmp_path):
+    nodes = block_nodes(rough(8, 0.2 * SPACING), SPACING, MeshOptions())
+    path = write_msh(nodes, tmp_path / "block.msh")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["block.msh"]  # no partial file left
+    coordinates, hexahedra, groups = read_msh(path)
+    np.testing.assert_array_equal(coordinates, nodes.coordinates)
+    np.testing.assert_array_equal(hexahedra, nodes.hexahedra)
+    assert groups.keys() == {side.name.lower() for side in Boundary} | {"block"}
+    for side, quadrangles in boundary_quadrangles(nodes).items():
+        np.testing.assert_array_equal(groups[side.name.lower()], quadrangles)
+
+
+def test_an_msh_path_that_cannot_be_written_is_refused(tmp_path):
+    nodes = block_nodes(np.zeros((4, 4)), SPACING, MeshOptions())
+    with pytest.raises(InputError, match="ends in .msh"):
+        write_msh(nodes, tmp_path / "block.vtk")
+    with pytest.raises(InputError, match="cannot write the mesh"):
+        write_msh(nodes, tmp_path / "missing" / "block.msh")
+    assert list(tmp_path.iterdir()) == []
 
 
 @pytest.mark.parametrize("options", [{"blend_layers": 0}, {"growth": 0.5}, {"depth": -1.0},
@@ -134,45 +207,30 @@ def test_bad_mesh_options(options):
         MeshOptions(**options)
 
 
-def test_slab_partitioner_sends_contiguous_cells_to_one_rank_and_ghosts_to_neighbours():
-    from dolfinx.cpp.graph import AdjacencyList_int64
-
-    # 4 cells in a row, each a neighbour of the next: 2 parts split them 2 + 2
-    graph = AdjacencyList_int64(np.array([1, 0, 2, 1, 3, 2], dtype=np.int64),
-                                np.array([0, 1, 3, 5, 6], dtype=np.int32))
-    plain = slab_partitioner(MPI.COMM_SELF, 2, graph, False)
-    assert list(plain.array) == [0, 0, 1, 1]
-    ghosted = slab_partitioner(MPI.COMM_SELF, 2, graph, True)
-    assert [list(ghosted.links(cell)) for cell in range(4)] == [[0], [0, 1], [1, 0], [1]]
-
-
-@pytest.mark.mpi
-def test_the_block_is_partitioned_the_same_way_at_every_build():
-    """dolfinx 0.5's graph partitioner is not repeatable; a different partition changes the
-    round-off of every solve and can flip a step cut (docs/benchmarks.md, version 0.4.2)."""
-    heights = np.random.default_rng(1).normal(0.0, 0.1e-6, (8, 8))
-    owned = []
-    for _ in range(3):
-        block = build_block(heights, 1e-6, MeshOptions(), MPI.COMM_WORLD)
-        cells = block.mesh.topology.index_map(3).size_local
-        nodes = block.mesh.geometry.dofmap.array.reshape(-1, 8)[:cells]
-        owned.append(np.sort(block.mesh.geometry.x[nodes].reshape(-1, 24), axis=0))
-    for other in owned[1:]:
-        np.testing.assert_array_equal(other, owned[0])
+MEASURE_PEAK_MEMORY = """
+import numpy as np
+from mpi4py import MPI
+from roughfriction.case import FemCase, Loading
+from roughfriction.geometry.surface import Surface
+from roughfriction.solver.run import run
+heights = np.random.default_rng(3).normal(0.0, 0.1e-6, ({n}, {n}))
+run(FemCase(Surface(heights, 1e-6, "rough"), Loading(0.3, normal_only=True)), MPI.COMM_SELF)
+print(next(line.split()[1] for line in open("/proc/self/status") if line.startswith("VmHWM")))
+"""
 
 
-def test_the_memory_estimate_bounds_the_benchmarked_runs():
-    """The estimate lies above the peak memory of every committed `make bench-fem` row
-    (docs/bench/fem.csv), but within 1.5x of it (else it refuses runs that would fit)."""
-    import csv
-    from pathlib import Path
-
-    rows = list(csv.DictReader((Path(__file__).parents[1] / "docs" / "bench" / "fem.csv")
-                               .read_text().splitlines()))
-    assert rows
-    for row in rows:
-        estimate = estimated_memory_gb(int(row["n"]), MeshOptions(), int(row["ranks"]))
-        assert 1.0 < estimate / float(row["peak_memory_gb"]) < 1.5, row
+def test_the_memory_estimate_bounds_a_measured_run():
+    """The estimate lies above the peak memory of a small run, but within 1.5x of it (else it
+    refuses runs that would fit). The run has a process of its own, whose peak is read from
+    VmHWM: ru_maxrss would report the larger test process it was started from."""
+    if not Path("/proc/self/status").is_file():
+        pytest.skip("needs Linux's /proc/self/status")
+    n = 16
+    result = subprocess.run([sys.executable, "-c", MEASURE_PEAK_MEMORY.format(n=n)],
+                            capture_output=True, text=True, check=True)
+    peak_gb = int(result.stdout.splitlines()[-1]) / 2**20  # VmHWM is in kB
+    estimate = estimated_memory_gb(n, MeshOptions(), 1)
+    assert 1.0 < estimate / peak_gb < 1.5, (estimate, peak_gb)
 
 
 def test_a_run_too_large_for_the_available_memory_is_refused(monkeypatch):

@@ -48,7 +48,7 @@ def test_a_refined_case_deepens_the_blend_where_its_thinner_layers_would_distort
     count."""
     from mpi4py import MPI
     from roughfriction.errors import InputError
-    from roughfriction.geometry.mesh import build_block
+    from roughfriction.solver.block import build_block
 
     spacing = 1e-6
     heights = np.zeros((8, 8))

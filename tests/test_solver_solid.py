@@ -8,11 +8,11 @@ from mpi4py import MPI  # noqa: E402
 from petsc4py import PETSc  # noqa: E402
 from roughfriction.geometry.mesh import (  # noqa: E402
     MeshOptions,
-    build_block,
     interpolation_masters,
     mesh_size,
 )
 from roughfriction.material import Material  # noqa: E402
+from roughfriction.solver.block import build_block  # noqa: E402
 from roughfriction.solver.periodic import PeriodicReduction, dof_node_grid_index  # noqa: E402
 from roughfriction.solver.solid import Solid  # noqa: E402
 
