@@ -787,7 +787,7 @@ class Equilibrium:
         """Everything a converged step leaves behind (displacement, flat height, plastic
         history, contact history), to branch several loadings from one state."""
         displacement, height = self._committed
-        return (displacement.copy(), height, self.solid.committed, self.flat.committed_state())
+        return (displacement.copy(), height, self.solid.committed, self.flat.committed)
 
     def resume(self, state: tuple) -> None:
         """Return to a :meth:`committed_state` (it stays valid for further resumes)."""
