@@ -8,20 +8,17 @@ sum 1 per face; shape functions N_b of the corners b).
 
 * **Normal contact, per node** (a mortar-type weighted gap): node a stands for its tributary
   area, the quarter of each of its 4 faces nearest to it (the points of a face where N_a is
-  largest; n is even). Its weighted gap is the mean
-  gap over that area, g~_a = sum_q W_aq g_q with g_q = h - sum_b N_b(q) (Z_b + u_z,b) and
-  W_aq = w_q on a's tributary points (sum_q W_aq = 1), and its pressure is
-  p_a = <lambda_a - eps_N g~_a> (augmented Lagrangian: after a converged Newton solve, Uzawa
-  sets lambda_a <- p_a and re-solves until no node penetrates deeper than a tolerance, so the
-  contact does not depend on eps_N). The pressure field is p_a on a's tributary area; the
-  contact area is the tributary area of the nodes with p_a > 0. One constraint per node keeps
-  the multipliers unique, and the averaged (not collocated) gap is what makes the area
-  converge with the mesh (docs/verification.md).
-* **Friction, per point**, by a return map under the maximum shear stress criterion (the
-  paper's tau_c): with w_q = (U - u_x, -u_y) at q and the committed stick point w_s,q, the
-  trial traction is t* = eps_T (w_q - w_s,q); the point sticks if |t*| <= c_q, else slips with
-  t = c_q t*/|t*|, under the cap c_q = tau_c min(1, p_q / p_r) (ANSYS's min(mu p, tau_max) with
-  mu = tau_c / p_r: continuous in p, so a node at a patch edge has a consistent state), p_q the
+  largest; n is even). Its weighted gap is the mean gap over that area, g~_a = sum_q W_aq g_q
+  with g_q = h - sum_b N_b(q) (Z_b + u_z,b) and W_aq = w_q on a's tributary points
+  (sum_q W_aq = 1), and its pressure p_a follows from g~_a by the augmented Lagrangian law of
+  :mod:`solver.contact_law` (after a converged Newton solve, Uzawa sets lambda_a <- p_a and
+  re-solves until no node penetrates deeper than a tolerance, so the contact does not depend on
+  eps_N). The pressure field is p_a on a's tributary area; the contact area is the tributary
+  area of the nodes with p_a > 0. One constraint per node keeps the multipliers unique, and the
+  averaged (not collocated) gap is what makes the area converge with the mesh
+  (docs/verification.md).
+* **Friction, per point**: the return map of :mod:`solver.contact_law` at the slip
+  w_q - w_s,q, with w_q = (U - u_x, -u_y) at q, the committed stick point w_s,q and p_q the
   pressure of the node whose tributary area holds q.
 
 Forces and tangent are the derivatives of the contact energy sum_a h_grid^2 psi(g~_a) and of
@@ -51,6 +48,7 @@ from dataclasses import dataclass
 from functools import cache, cached_property
 
 import numpy as np
+from roughfriction.solver.contact_law import ContactLaw
 from scipy import sparse
 
 #: Corner offsets (di, dj) of a face's nodes a = 0..3 from its node (i, j).
@@ -161,8 +159,32 @@ class ContactResponse:
         return stiffness
 
 
+@dataclass(frozen=True)
+class ContactHistory:
+    """What a converged step leaves at the contact points and nodes (arrays are replaced, never
+    changed in place, by the solver: a history stays valid to return to).
+
+    Attributes
+    ----------
+    stick_offset : numpy.ndarray
+        Stick points w_s [m], shape (P, 2).
+    slipped : numpy.ndarray
+        Slipping (bool, (P,)).
+    anchored : numpy.ndarray
+        In contact (bool, (P,)): only these carry shear in the next step.
+    multiplier : numpy.ndarray
+        Uzawa multipliers lambda_a [Pa], shape (N^2,).
+    """
+
+    stick_offset: np.ndarray
+    slipped: np.ndarray
+    anchored: np.ndarray
+    multiplier: np.ndarray
+
+
 class RigidFlat:
-    """The contact surface (N x N faces), its history at the integration points, the laws.
+    """The contact surface (N x N faces): its quadrature, the gathers of the surface nodes over
+    the ranks, the contact law at its points and their history.
 
     Parameters
     ----------
@@ -179,35 +201,29 @@ class RigidFlat:
         Surface heights Z [m] of the owned nodes, shape (m,).
     spacing : float
         Grid spacing h_grid [m].
-    penalty : float
-        Normal penalty eps_N [Pa/m].
-    shear_strength : float
-        tau_c [Pa].
-    ramp_pressure : float
-        p_r: the cap is tau_c min(1, p / p_r) [Pa]; 0 for the pure cap tau_c.
-    tangential_penalty : float
-        Stick penalty eps_T [Pa/m].
+    law : ContactLaw
+        Pressure and friction at the points.
     points_per_side : int
         Gauss points per face side n [-].
 
     Attributes
     ----------
+    committed : ContactHistory
+        The history of the last converged step.
+    multiplier : numpy.ndarray
+        The current multipliers lambda_a [Pa] (Uzawa updates them within a step).
     symmetric_tangent : bool
         Leave the ramp's coupling dt/dp out of the tangent (an approximate, symmetric Newton
         tangent; the residual keeps the law exactly). False by default.
     """
 
     def __init__(self, comm, nodes: np.ndarray, grid_index: np.ndarray, grid_size: int,
-                 heights: np.ndarray, spacing: float, penalty: float, shear_strength: float,
-                 ramp_pressure: float, tangential_penalty: float, points_per_side: int = 2):
+                 heights: np.ndarray, spacing: float, law: ContactLaw, points_per_side: int = 2):
         self.comm = comm
         self.nodes = nodes
         self.grid_size = n = grid_size
         self.spacing = spacing
-        self.penalty = penalty
-        self.tangential_penalty = tangential_penalty
-        self.shear_strength = shear_strength
-        self.ramp_pressure = ramp_pressure
+        self.law = law
         self.symmetric_tangent = False  # see the class docstring
         self.owned_grid = grid_index[:, 0] * n + grid_index[:, 1]  # grid node of each owned node
         self._gather_order = np.argsort(np.concatenate(comm.allgather(self.owned_grid)))
@@ -215,7 +231,16 @@ class RigidFlat:
                 np.sort(self._gather_order) != np.arange(n * n)):
             raise RuntimeError(f"surface nodes do not cover the {n} x {n} grid once")
         self.node_heights = self.gather_nodes(heights)
+        self._build_quadrature(points_per_side)
+        num_points = len(self.point_weight)
+        self.committed = ContactHistory(np.zeros((num_points, 2)),
+                                        np.zeros(num_points, dtype=bool),
+                                        np.zeros(num_points, dtype=bool), np.zeros(n * n))
+        self.multiplier = self.committed.multiplier
 
+    def _build_quadrature(self, points_per_side: int) -> None:
+        """The points of every face and the sparse maps between points and grid nodes."""
+        n = self.grid_size
         self.shape, self.weight = face_quadrature(points_per_side)
         q = len(self.weight)
         i, j = np.divmod(np.arange(n * n), n)
@@ -240,17 +265,10 @@ class RigidFlat:
         self._point_pressure = (sparse.diags(1.0 / self.point_weight)
                                 @ self._tributary.T).tocsr()
         self._gap_gradient = (self._tributary @ self._interpolation).tocsr()
-        i, j = np.divmod(np.arange(n * n), n)
         self._neighbours = (((i[:, None] + NEIGHBOURS[:, 0]) % n) * n
                             + (j[:, None] + NEIGHBOURS[:, 1]) % n)
         self._first_neighbour = np.array(  # a neighbour met twice on a small grid counts once
             [[node not in row[:k] for k, node in enumerate(row)] for row in self._neighbours[:1]])
-
-        self.stick_offset = np.zeros((num_points, 2))
-        self.slipped = np.zeros(num_points, dtype=bool)  # slipping at the last converged step
-        self.anchored = np.zeros(num_points, dtype=bool)  # in contact at the last converged step
-        self.multiplier = np.zeros(n * n)  # lambda_a [Pa]
-        self._committed_multiplier = self.multiplier
 
     # --- the surface grid ---------------------------------------------------------------------
 
@@ -291,46 +309,59 @@ class RigidFlat:
             Stick law without cap for points that stuck at the last converged step.
         active : numpy.ndarray, optional
             Frozen contact set of the nodes, bool (N^2,): these carry lambda_a - eps_N g~_a even
-            if it is negative; the others join when they penetrate (the set only grows: no cycling;
-            the caller judges a converged iterate under the free law).
+            if it is negative; the others join when they penetrate (the set only grows: no
+            cycling; the caller judges a converged iterate under the free law).
         """
-        eps, eps_t = self.penalty, self.tangential_penalty
+        law, history = self.law, self.committed
         u = self.interpolate(self.gather_nodes(displacement[self.nodes]))
         gap = flat_height - (self.heights + u[:, 2])
         node_gap = self._tributary @ gap
-        trial_pressure = self.multiplier - eps * node_gap
-        node_active = trial_pressure > 0.0
-        if active is not None:
-            node_active |= active
-        node_pressure = np.where(node_active, trial_pressure, 0.0)
+        node_pressure, node_active = law.pressure(self.multiplier, node_gap, active)
         pressure = self._point_pressure @ node_pressure  # < 0 only under a frozen node
         in_contact = pressure > 0.0
         relative = np.column_stack([flat_slide - u[:, 0], -u[:, 1]])  # w [m]
-        trial = eps_t * (relative - self.stick_offset)
-        trial_norm = np.linalg.norm(trial, axis=1)
-        frictional = in_contact & friction & self.anchored
-        capped = self.slipped if predictor else frictional
-        cap = self.shear_cap(pressure)
-        slipping = frictional & capped & (trial_norm > cap)
-        scale = np.where(slipping, cap / np.where(slipping, trial_norm, 1.0), 1.0)
-        traction = np.where(frictional[:, None], scale[:, None] * trial, 0.0)
+        frictional = in_contact & friction & history.anchored
+        capped = history.slipped if predictor else frictional
+        shear = law.friction(relative - history.stick_offset, pressure, frictional, capped)
 
-        direction = trial / np.where(trial_norm > 0.0, trial_norm, 1.0)[:, None]
-        stiffness = eps * node_active
+        stiffness = law.pressure_stiffness(node_active)
         pressure_height = -(self._point_pressure @ stiffness)  # dp_q/dh
         # below p_r a slipping point's traction c(p) n follows its pressure
-        coupling = self.cap_slope(pressure, slipping)[:, None] * direction  # dc/dp n [-]
+        coupling = law.pressure_coupling(shear, pressure)  # dc/dp n [-]
         coupled = bool(np.any(coupling))
         if self.symmetric_tangent:
             coupling = np.zeros_like(coupling)
         height_derivative = np.column_stack([-coupling * pressure_height[:, None],
                                              pressure_height])
+        point_force = np.column_stack([-shear.traction, pressure])
+        return ContactResponse(
+            gap=gap,
+            node_gap=node_gap,
+            node_active=node_active,
+            node_pressure=node_pressure,
+            in_contact=in_contact,
+            slipping=shear.slipping,
+            pressure=pressure,
+            traction=shear.traction,
+            stick_offset=relative - shear.traction / law.tangential_penalty,
+            node_force=self.to_nodes(point_force),
+            stiffness=self._stiffness(stiffness, coupling,
+                                      lambda: law.slip_tangent(shear, frictional)),
+            node_height_derivative=self.to_nodes(height_derivative),
+            coupled=coupled,
+            symmetric=not np.any(coupling),
+        )
 
+    def _stiffness(self, pressure_stiffness: np.ndarray, coupling: np.ndarray,
+                   slip_tangent: Callable[[], np.ndarray]) -> Callable:
+        """The contact tangent's node blocks (:attr:`ContactResponse.stiffness`) from the law's
+        -dp/dg~ of the nodes [Pa/m], dt/dp of the points [-] and dt/ds of the points [Pa/m]
+        (computed on the first call)."""
         @cache
         def pressure_columns() -> tuple:
             # dp_q/du_z,b = eps (W^T/w) (W N), and the shear rows' ramp coupling dt/dp through
             # it (both parts of the tangent need them: computed once)
-            pressure_gradient = (self._point_pressure @ sparse.diags(stiffness)
+            pressure_gradient = (self._point_pressure @ sparse.diags(pressure_stiffness)
                                  @ self._gap_gradient)
             return pressure_gradient, [-(self._to_nodes @ sparse.diags(coupling[:, i])
                                          @ pressure_gradient) for i in range(2)]
@@ -344,9 +375,7 @@ class RigidFlat:
             blocks[0, 2], blocks[1, 2] = shear_coupling
             if coupling_only:
                 return self._node_tangent(blocks)
-            tangential = np.eye(2) - np.where(slipping, 1.0, 0.0)[:, None, None] * np.einsum(
-                "ni,nj->nij", direction, direction)
-            shear = np.where(frictional, eps_t * scale, 0.0)[:, None, None] * tangential
+            shear = slip_tangent()
             for i in range(2):
                 for j in range(2):
                     blocks[i, j] = (self._to_nodes @ sparse.diags(shear[:, i, j])
@@ -354,23 +383,7 @@ class RigidFlat:
             blocks[2, 2] = self._to_nodes @ pressure_gradient
             return self._node_tangent(blocks)
 
-        point_force = np.column_stack([-traction, pressure])
-        return ContactResponse(
-            gap=gap,
-            node_gap=node_gap,
-            node_active=node_active,
-            node_pressure=node_pressure,
-            in_contact=in_contact,
-            slipping=slipping,
-            pressure=pressure,
-            traction=traction,
-            stick_offset=relative - traction / eps_t,
-            node_force=self.to_nodes(point_force),
-            stiffness=node_stiffness,
-            node_height_derivative=self.to_nodes(height_derivative),
-            coupled=coupled,
-            symmetric=not np.any(coupling),
-        )
+        return node_stiffness
 
     def _node_tangent(self, blocks: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The nodes a with a nonzero row in any of the 3 x 3 component matrices ``blocks``
@@ -393,42 +406,21 @@ class RigidFlat:
         tangent *= self._first_neighbour * self.spacing**2
         return nodes, tangent.transpose(2, 3, 0, 1)
 
-    def shear_cap(self, pressure: np.ndarray) -> np.ndarray:
-        """c = tau_c min(1, p / p_r) [Pa] (tau_c if p_r = 0) at the pressures ``pressure``
-        [Pa]."""
-        if self.ramp_pressure == 0.0:
-            return np.full_like(pressure, self.shear_strength)
-        return self.shear_strength * np.clip(pressure / self.ramp_pressure, 0.0, 1.0)
-
-    def cap_slope(self, pressure: np.ndarray, slipping: np.ndarray) -> np.ndarray:
-        """dc/dp of slipping points [-]: tau_c / p_r where 0 < p < p_r, else 0."""
-        if self.ramp_pressure == 0.0:
-            return np.zeros_like(pressure)
-        ramping = slipping & (pressure > 0.0) & (pressure < self.ramp_pressure)
-        return np.where(ramping, self.shear_strength / self.ramp_pressure, 0.0)
-
     # --- history --------------------------------------------------------------------------------
 
     def commit(self, response: ContactResponse) -> None:
         """Keep the stick points, slip states and multipliers of a converged step."""
-        self.stick_offset = response.stick_offset
-        self.slipped = response.slipping
-        self.anchored = response.in_contact
-        self._committed_multiplier = self.multiplier
+        self.committed = ContactHistory(response.stick_offset, response.slipping,
+                                        response.in_contact, self.multiplier)
 
     def restore(self) -> None:
         """Return the multipliers to the last converged step (after a failed step)."""
-        self.multiplier = self._committed_multiplier
+        self.multiplier = self.committed.multiplier
 
-    def committed_state(self) -> tuple:
-        """The committed stick points, slip and contact flags and multipliers (arrays are
-        replaced, never changed in place, so references stay valid)."""
-        return self.stick_offset, self.slipped, self.anchored, self._committed_multiplier
-
-    def resume(self, state: tuple) -> None:
-        """Return to a :meth:`committed_state`."""
-        self.stick_offset, self.slipped, self.anchored, self._committed_multiplier = state
-        self.multiplier = self._committed_multiplier
+    def resume(self, history: ContactHistory) -> None:
+        """Return to an earlier :attr:`committed` history."""
+        self.committed = history
+        self.restore()
 
     def augment(self, response: ContactResponse) -> None:
         """Uzawa update of the multipliers: lambda_a <- p_a."""
@@ -503,7 +495,7 @@ class RigidFlat:
         tops = self._tributary @ (self.heights + self.interpolate(
             self.gather_nodes(displacement[self.nodes, 2])))  # h - g~_a [m]
         area = self.spacing**2
-        stiffness = np.full(len(tops), 1.0 / (1.0 / (self.penalty * area)
+        stiffness = np.full(len(tops), 1.0 / (1.0 / (self.law.penalty * area)
                                               + 0.95 / (elastic_modulus * np.sqrt(area))))
         order = np.argsort(tops)[::-1]
         tops, stiffness = tops[order], stiffness[order]

@@ -18,6 +18,7 @@ from roughfriction.errors import InputError
 from roughfriction.geometry.mesh import Block, blend_layers_needed, estimated_memory_gb, mesh_size
 from roughfriction.solver.block import build_block
 from roughfriction.solver.contact import ContactResponse, RigidFlat
+from roughfriction.solver.contact_law import ContactLaw
 from roughfriction.solver.equilibrium import Equilibrium
 from roughfriction.solver.fields import FieldWriter
 from roughfriction.solver.linear import node_memory_available_gb
@@ -114,14 +115,12 @@ def surface_contact(solid: Solid, block: Block, case: FemCase) -> RigidFlat:
     heights = V.tabulate_dof_coordinates()[on_surface, 2]
     material, spacing = case.material, block.spacing
     penalty = case.solver.penalty * material.E_star / spacing
-    return RigidFlat(
-        block.mesh.comm, on_surface, grid[on_surface, :2], n, heights, spacing,
-        penalty=penalty,
-        shear_strength=material.tau_c,
-        ramp_pressure=case.solver.friction_ramp * material.Sy,
-        tangential_penalty=case.solver.tangential_penalty * penalty,
-        points_per_side=case.solver.contact_points,
-    )
+    law = ContactLaw(penalty=penalty,
+                     tangential_penalty=case.solver.tangential_penalty * penalty,
+                     shear_strength=material.tau_c,
+                     ramp_pressure=case.solver.friction_ramp * material.Sy)
+    return RigidFlat(block.mesh.comm, on_surface, grid[on_surface, :2], n, heights, spacing,
+                     law, points_per_side=case.solver.contact_points)
 
 
 def contact_maps(flat: RigidFlat, contact: ContactResponse, phase: str) -> dict:

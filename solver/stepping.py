@@ -16,7 +16,8 @@ from dataclasses import dataclass
 import numpy as np
 from roughfriction.case import FemCase
 from roughfriction.solver.contact import ContactResponse
-from roughfriction.solver.equilibrium import Equilibrium, NewtonReport
+from roughfriction.solver.equilibrium import Equilibrium
+from roughfriction.solver.newton import LoadStep, NewtonReport
 from roughfriction.solver.progress import StepCut
 from roughfriction.solver.results import StepRecord, count_patches
 
@@ -161,8 +162,7 @@ class LoadPath:
                 self._aim_height(aim)
             elif last is not None:
                 equilibrium.extrapolate((aim - self.normal_force) / last)
-            report = self._attempt(aim, 0.0, friction=False, hold_height=hold,
-                                   marks_path=hold or then_slide)
+            report = self._attempt(LoadStep(aim, hold_height=hold, marks_path=hold or then_slide))
             if report is None:
                 return Outcome(False, f"step limit reached during preload at F_n = {start:.4g}"
                                       " x target")
@@ -225,8 +225,8 @@ class LoadPath:
             trial = slide + size.value
             if last is not None:
                 self.equilibrium.extrapolate(size.value / last)
-            report = self._attempt(target, trial, friction=True, predictor=last is None,
-                                   marks_path=True)
+            report = self._attempt(LoadStep(target, trial, friction=True,
+                                            predictor=last is None, marks_path=True))
             if report is not None and report.converged and self._slips(report.contact):
                 report = self._tighten(report, target, trial)
             if report is None:
@@ -246,18 +246,15 @@ class LoadPath:
                                       "contact nodes slip)")
             size.after(report)
 
-    def _attempt(self, normal_force: float, slide: float, friction: bool,
-                 hold_height: bool = False, predictor: bool = True, marks_path: bool = False
-                 ) -> NewtonReport | None:
-        """One Newton solve (arguments of :meth:`Equilibrium.solve`); restores the committed
-        state if it fails. None past the step limit."""
+    def _attempt(self, step: LoadStep) -> NewtonReport | None:
+        """One load step (:meth:`Equilibrium.solve`); restores the committed state if it fails.
+        None past the step limit."""
         self.attempts += 1
         if self.attempts > self.case.solver.max_steps:
             return None
-        report = self.equilibrium.solve(normal_force, slide, friction, hold_height, predictor,
-                                        marks_path)
+        report = self.equilibrium.solve(step)
         if not report.converged:
-            self._reject(report, friction)
+            self._reject(report, step.friction)
         return report
 
     def _slips(self, contact: ContactResponse) -> bool:
@@ -273,8 +270,8 @@ class LoadPath:
         contact node slips, and the slipping points below p_r at the patch edges couple their
         traction to their pressure, which the symmetric tangent leaves out (it then converges
         only linearly)."""
-        final = self.equilibrium.solve(normal_force, slide, True, predictor=False,
-                                       exact_tangent=True)
+        final = self.equilibrium.solve(LoadStep(normal_force, slide, friction=True,
+                                                predictor=False, exact_tangent=True))
         final = dataclasses.replace(
             final, iterations=report.iterations + final.iterations,
             krylov_iterations=report.krylov_iterations + final.krylov_iterations)

@@ -1,5 +1,7 @@
 """Fixtures shared by the test modules."""
 
+import dataclasses
+
 import pytest
 
 
@@ -13,10 +15,9 @@ def only_mark_the_path(monkeypatch):
     solve = Equilibrium.solve
 
     def patch(rule):
-        def patched(self, normal_force, flat_slide, friction, hold_height=False,
-                    predictor=True, marks_path=False, exact_tangent=False):
-            return solve(self, normal_force, flat_slide, friction, hold_height, predictor,
-                         rule(marks_path, friction, hold_height), exact_tangent)
+        def patched(self, step):
+            marks_path = rule(step.marks_path, step.friction, step.hold_height)
+            return solve(self, dataclasses.replace(step, marks_path=marks_path))
 
         monkeypatch.setattr(Equilibrium, "solve", patched)
 

@@ -7,6 +7,7 @@ from mpi4py import MPI
 from roughfriction.case import SolverOptions
 from roughfriction.errors import InputError
 from roughfriction.solver.contact import NEIGHBOURS, RigidFlat, face_quadrature
+from roughfriction.solver.contact_law import ContactLaw
 
 TAU_C = 577e6  # [Pa]
 RAMP = 10e6  # [Pa]
@@ -21,13 +22,14 @@ def flat_over(heights=None, ramp=RAMP, tangential=PENALTY, points=2):
     heights = np.zeros((N, N)) if heights is None else np.asarray(heights, float)
     n = len(heights)
     i, j = np.divmod(np.arange(n * n), n)
+    law = ContactLaw(PENALTY, tangential, TAU_C, ramp)
     return RigidFlat(MPI.COMM_SELF, np.arange(n * n), np.column_stack([i, j]), n,
-                     heights.ravel(), SPACING, PENALTY, TAU_C, ramp, tangential, points)
+                     heights.ravel(), SPACING, law, points)
 
 
 def anchored(flat):
     """Every point in contact and stuck at the last converged step (after a preload)."""
-    flat.anchored[:] = True
+    flat.committed.anchored[:] = True
     return flat
 
 
@@ -54,13 +56,6 @@ def test_points_see_the_bilinear_surface_through_the_nodes():
     face = 2 * N + 3  # face (2, 3): corners (2,3), (3,3), (2,0), (3,0) across the period
     corners = heights[[2, 3, 2, 3], [3, 3, 0, 0]]
     np.testing.assert_allclose(flat.heights.reshape(N * N, 9)[face], shape @ corners)
-
-
-def test_shear_cap_rises_with_pressure_up_to_tau_c():
-    flat = flat_over()
-    cap = flat.shear_cap(np.array([-1e6, 0.0, 2.5e6, RAMP, 1e9]))
-    np.testing.assert_allclose(cap, [0.0, 0.0, 0.25 * TAU_C, TAU_C, TAU_C])
-    assert flat_over(ramp=0.0).shear_cap(np.array([1.0]))[0] == TAU_C
 
 
 def test_uniform_pressure_gives_consistent_nodal_forces_and_full_area():
@@ -183,9 +178,9 @@ def test_open_newly_touching_and_frictionless_points_carry_no_shear():
     heights = np.zeros((N, N))
     heights[:, 2:] = -1e-8  # the faces between j = 2 and 3 lie 10 nm below: open
     flat = anchored(flat_over(heights))
-    newly = np.zeros(len(flat.anchored), bool)
+    newly = np.zeros(len(flat.committed.anchored), bool)
     newly[:4] = True  # face (0, 0) touches in this step
-    flat.anchored[newly] = False
+    flat.committed.anchored[newly] = False
     slide = 0.5 * TAU_C / PENALTY
     # nodes j = 0, 1 have a lowered neighbour: their tributary mean lies 1.25 nm below them
     response = flat.respond(still(), -5e9 / PENALTY, slide, friction=True)
@@ -208,7 +203,7 @@ def test_nodal_tangent_and_height_derivative_match_finite_differences(pressure, 
     rng = np.random.default_rng(1)
     heights = rng.normal(size=(N, N)) * 1e-3 * pressure / PENALTY
     flat = anchored(flat_over(heights, tangential=tangential))
-    flat.stick_offset[:] = [[0.0, -0.5 * slide * TAU_C / tangential]]
+    flat.committed.stick_offset[:] = [[0.0, -0.5 * slide * TAU_C / tangential]]
     height, flat_slide = -pressure / PENALTY, slide * TAU_C / tangential * np.sqrt(0.75)
     u0 = rng.normal(size=(N * N, 3)) * 1e-3 * pressure / PENALTY
     response = flat.respond(u0, height, flat_slide, friction=True)
@@ -303,3 +298,24 @@ def test_nodal_tangent_of_a_partial_contact_is_held_for_the_stiff_nodes_only():
         tangent[a, :, neighbours[a], :] = response.node_stiffness[a]
     scale = PENALTY * SPACING**2
     np.testing.assert_allclose(tangent, jacobian, rtol=1e-5, atol=1e-7 * scale)
+
+
+def test_a_failed_step_returns_to_the_committed_history():
+    """Commit keeps a converged step's stick points, slip and contact flags and multipliers;
+    after Uzawa updates of a failed step, restore brings the multipliers back, and resume
+    returns to an older history whose arrays the later steps did not change."""
+    flat = anchored(flat_over())
+    start = flat.committed
+    first = flat.respond(still(), -1e9 / PENALTY, 3 * TAU_C / PENALTY, friction=True)
+    flat.augment(first)
+    flat.commit(first)
+    assert flat.committed.multiplier is flat.multiplier
+    np.testing.assert_array_equal(flat.committed.stick_offset, first.stick_offset)
+    second = flat.respond(still(), -2e9 / PENALTY, 6 * TAU_C / PENALTY, friction=True)
+    flat.augment(second)
+    assert not np.array_equal(flat.multiplier, flat.committed.multiplier)
+    flat.restore()
+    np.testing.assert_array_equal(flat.multiplier, first.node_pressure)
+    flat.resume(start)
+    assert flat.committed is start and not start.multiplier.any()
+    assert not start.stick_offset.any() and start.anchored.all() and not start.slipped.any()

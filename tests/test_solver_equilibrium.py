@@ -1,6 +1,5 @@
-"""Newton loop of solver.equilibrium: convergence of its steps."""
-
-from types import SimpleNamespace
+"""solver.equilibrium: the iterate, its load steps (Newton with Uzawa updates) and the path
+predictor, on whole runs."""
 
 import dolfinx  # noqa: E402, F401  (an install without the FEM fails here)
 import numpy as np
@@ -10,9 +9,11 @@ from petsc4py import PETSc  # noqa: E402
 from roughfriction.case import FemCase, Loading, SolverOptions  # noqa: E402
 from roughfriction.geometry.generate import builtin_surface  # noqa: E402
 from roughfriction.geometry.surface import Surface, surface_on_fem_grid  # noqa: E402
-from roughfriction.solver import equilibrium as equilibrium_module  # noqa: E402
+from roughfriction.solver import newton as newton_module  # noqa: E402
 from roughfriction.solver.contact import RigidFlat  # noqa: E402
 from roughfriction.solver.equilibrium import Equilibrium  # noqa: E402
+from roughfriction.solver.newton import LoadStep, NewtonSolve  # noqa: E402
+from roughfriction.solver.reduced_system import ReducedSystem  # noqa: E402
 from roughfriction.solver.run import run  # noqa: E402
 from roughfriction.solver.stepping import LoadPath  # noqa: E402
 
@@ -29,25 +30,23 @@ def test_a_converged_step_is_one_newton_increment_from_the_solution(monkeypatch)
     solve = Equilibrium.solve
     moves, loose = [], []
 
-    def checked(self, normal_force, flat_slide, friction, hold_height=False, predictor=True,
-                marks_path=False, exact_tangent=False):
+    def checked(self, step):
         solved_with = self.flat.multiplier
-        report = solve(self, normal_force, flat_slide, friction, hold_height, predictor,
-                       marks_path, exact_tangent)
+        report = solve(self, step)
         carried = self.flat.multiplier
-        if marks_path:
+        if step.marks_path:
             self.flat.multiplier = solved_with
         if report.converged and report.iterations > 0:
-            self.assemble(flat_slide, friction)
+            self.assemble(step.flat_slide, step.friction)
             self.assemble_tangent(report.contact)
-            force_error = (0.0 if hold_height
-                           else self.flat.normal_force(report.contact) - normal_force)
-            self._bordered_solve(force_error, 1e-12)
-            tolerance = (equilibrium_module.UZAWA_INCREMENT_TOLERANCE if marks_path
+            force_error = (0.0 if step.hold_height
+                           else self.flat.normal_force(report.contact) - step.normal_force)
+            self.system.bordered_solve(force_error, 1e-12, step.hold_height)
+            tolerance = (newton_module.UZAWA_INCREMENT_TOLERANCE if step.marks_path
                          else self.options.increment_tolerance)
-            moves.append(self._x1.norm(PETSc.NormType.NORM_INFINITY)
+            moves.append(self.system.x1.norm(PETSc.NormType.NORM_INFINITY)
                          / (tolerance * self.spacing))
-            loose.append(marks_path)
+            loose.append(step.marks_path)
         self.flat.multiplier = carried
         return report
 
@@ -75,7 +74,7 @@ def test_the_path_slope_is_the_derivative_of_the_held_force(monkeypatch, only_ma
         slope = equilibrium.path_slope()
         height_change = 1e-3 * self.normal_force / slope
         equilibrium.flat_height += height_change  # (u from the committed step: Newton's work)
-        report = equilibrium.solve(aim, 0.0, False, hold_height=True)
+        report = equilibrium.solve(LoadStep(aim, hold_height=True))
         assert report.converged, report.reason
         force = equilibrium.flat.normal_force(report.contact)
         slopes.append(((force - self.normal_force) / height_change, slope))
@@ -140,27 +139,25 @@ def test_a_step_that_marks_the_path_carries_its_multiplier_update(monkeypatch):
     starts from them instead of a re-solve of this one. Steps solved to the end (the last
     preload step, inception) still meet the penetration tolerance. G5 re-gridded to 16 x 16
     at F* = 0.5."""
-    solve, newton = Equilibrium.solve, Equilibrium._newton
+    solve, newton = Equilibrium.solve, NewtonSolve.run
     calls, path_steps, final_steps = [0], [], []
 
-    def counted(self, *args, **kwargs):
+    def counted(self):
         calls[0] += 1
-        return newton(self, *args, **kwargs)
+        return newton(self)
 
-    def spied(self, normal_force, flat_slide, friction, hold_height=False, predictor=True,
-              marks_path=False, exact_tangent=False):
+    def spied(self, step):
         calls[0] = 0
-        report = solve(self, normal_force, flat_slide, friction, hold_height, predictor,
-                       marks_path, exact_tangent)
+        report = solve(self, step)
         penetration = self.flat.penetration(report.contact) / self.spacing
-        if marks_path:
+        if step.marks_path:
             updated = np.array_equal(self.flat.multiplier, report.contact.node_pressure)
             path_steps.append((calls[0], penetration, updated))
         elif report.converged:
             final_steps.append(penetration)
         return report
 
-    monkeypatch.setattr(Equilibrium, "_newton", counted)
+    monkeypatch.setattr(NewtonSolve, "run", counted)
     monkeypatch.setattr(Equilibrium, "solve", spied)
     case = FemCase(surface_on_fem_grid(builtin_surface("G5"), 16), Loading(0.5))
     result = run(case, MPI.COMM_WORLD, progress=lambda record: None).result
@@ -204,22 +201,22 @@ def test_a_singular_exact_tangent_gives_way_to_the_symmetric_one_for_a_step(monk
     from roughfriction.studies.refinement import refined_case
 
     case = refined_case(FemCase(surface_on_fem_grid(builtin_surface("G5"), 4), Loading(0.155)), 2)
-    height_slope, line_search = Equilibrium._height_slope, Equilibrium._line_search
+    height_slope, line_search = ReducedSystem.height_slope, NewtonSolve._line_search
     flipped, symmetric_after = [], []
 
     def singular_once(self):
         slope = height_slope(self)
-        if not self._symmetric and not flipped:
+        if not self.symmetric and not flipped:
             flipped.append(True)  # the first exact tangent of the run
-        return abs(slope) if flipped and not symmetric_after and not self._symmetric else slope
+        return abs(slope) if flipped and not symmetric_after and not self.symmetric else slope
 
     def spy(self, *args, **kwargs):
         if flipped:
             symmetric_after.append(self.flat.symmetric_tangent)
         return line_search(self, *args, **kwargs)
 
-    monkeypatch.setattr(Equilibrium, "_height_slope", singular_once)
-    monkeypatch.setattr(Equilibrium, "_line_search", spy)
+    monkeypatch.setattr(ReducedSystem, "height_slope", singular_once)
+    monkeypatch.setattr(NewtonSolve, "_line_search", spy)
     result = run(case, MPI.COMM_SELF, progress=lambda record: None).result
     assert result.converged, result.message
     assert flipped and symmetric_after[0], "the step along the singular tangent was taken"
@@ -262,251 +259,21 @@ def test_a_non_symmetric_tangent_is_preconditioned_by_the_uncoupled_tangent(monk
         assert asymmetry < 1e-12 and couplings > 0 and shear_rows and normal_columns
 
 
-def test_the_forcing_term_is_never_tighter_than_the_newton_tolerance_needs():
-    """Far from the solution the Krylov tolerance is 0.1 x the relative residual, at most 1e-3;
-    near it, half the Newton tolerance over the relative residual (at most 0.1): a solve to
-    1e-6 F_n from 2e-6 F_n needs only a linear residual below 0.5e-6 F_n."""
-    forcing = equilibrium_module.forcing_term
-    contact = None
-    assert forcing(equilibrium_module._Iterate(contact, 1.0, 0.0), 1.0, 1e-6) == 1e-3
-    assert forcing(equilibrium_module._Iterate(contact, 1e-3, 0.0), 1.0, 1e-8) == (
-        pytest.approx(1e-4))
-    assert forcing(equilibrium_module._Iterate(contact, 1e-3, 0.0), 1.0, 1e-6) == (
-        pytest.approx(5e-4))
-    assert forcing(equilibrium_module._Iterate(contact, 1e-5, 1e-5), 1.0, 1e-6) == (
-        pytest.approx(0.025))
-    assert forcing(equilibrium_module._Iterate(contact, 1e-6, 1e-6), 1.0, 1e-6) == 0.1
-
-
-def test_the_bordered_newton_direction_meets_its_krylov_tolerance(monkeypatch):
-    """At every Newton iteration of a random 16 x 16 surface's preload and sliding, the
-    direction (du, dh) of the bordered system leaves a linear residual ||K du + b dh + R|| of at
-    most 2 x the forcing term x (||R|| + |r|) (x1's and x2's residuals, each within it): the
-    height column, scaled by dh, would otherwise dominate it near convergence."""
-    bordered_solve = Equilibrium._bordered_solve
-    ratios = []
-
-    def checked(self, force_error, tolerance):
-        residual_norm = self.residual.norm() + abs(force_error)
-        height_increment, krylov = bordered_solve(self, force_error, tolerance)
-        if not self._hold_height and residual_norm > 0.0:
-            linear = self._x1.duplicate()
-            self.tangent.mult(self._x1, linear)  # K du
-            linear.axpy(height_increment, self._height_column)  # + b dh
-            linear.axpy(1.0, self.residual)  # + R
-            ratios.append(linear.norm() / (tolerance * residual_norm))
-            linear.destroy()
-        return height_increment, krylov
-
-    monkeypatch.setattr(Equilibrium, "_bordered_solve", checked)
-    heights = np.random.default_rng(7).normal(0.0, 1e-7, (16, 16))
-    case = FemCase(Surface(heights, 1e-6, "test"), Loading(0.5))
-    result = run(case, MPI.COMM_WORLD, progress=lambda record: None).result
-    assert result.converged, result.message
-    assert len(ratios) > 20
-    assert max(ratios) <= 2.0, f"linear residual {max(ratios):.3g} x the forcing term"
-
-
-@pytest.mark.parametrize("whole_mesh_yielding", [1.0, 0.0])
-def test_the_tangent_is_the_reduced_solid_tangent_plus_the_contact_blocks(monkeypatch,
-                                                                         whole_mesh_yielding):
-    """At every Newton iteration of a random 16 x 16 surface's preload and sliding (yielding
-    cells and touching nodes from the first steps on), the system matrix built from the reduced
-    elastic part, the plastic correction reduced on its own cells (or, with any cell yielding,
-    the whole tangent reduced on the whole mesh) and the blocks of the touching nodes equals
-    P^T (K_elastic + K_plastic) P plus the blocks of every surface node, assembled on the full
-    mesh, to round-off."""
-    monkeypatch.setattr(equilibrium_module, "WHOLE_MESH_YIELDING", whole_mesh_yielding)
-    from dolfinx.fem import petsc as fem_petsc
-
-    assemble_tangent = Equilibrium.assemble_tangent
-    differences, plastic_iterations = [], [0]
-
-    def checked(self, contact):
-        assemble_tangent(self, contact)
-        full = self._elastic_tangent.duplicate(copy=True)
-        plastic = self.solid.plastic_tangent_form()
-        if plastic is not None:
-            plastic_iterations[0] += 1
-            fem_petsc.assemble_matrix(full, plastic)
-        full.assemble()
-        reduced = self.reduction.reduce_matrix(full)
-        reference = self._system_matrix(reduced)
-        reference.axpy(1.0, reduced, structure=PETSc.Mat.Structure.SUBSET_NONZERO_PATTERN)
-        blocks = contact.node_stiffness[self.flat.owned_grid].transpose(0, 2, 1, 3)
-        reference.setValuesBlockedRCV(self._contact_rows[:, :1] // 3, self._contact_columns,
-                                      blocks.reshape(len(blocks), -1),
-                                      addv=PETSc.InsertMode.ADD_VALUES)
-        reference.assemble()
-        scale = reference.norm(PETSc.NormType.FROBENIUS)
-        reference.axpy(-1.0, self.tangent, structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
-        differences.append(reference.norm(PETSc.NormType.FROBENIUS) / scale)
-        for matrix in (full, reduced, reference):
-            matrix.destroy()
-
-    monkeypatch.setattr(Equilibrium, "assemble_tangent", checked)
-    heights = np.random.default_rng(7).normal(0.0, 1e-7, (16, 16))
-    case = FemCase(Surface(heights, 1e-6, "test"), Loading(0.5))
-    result = run(case, MPI.COMM_WORLD, progress=lambda record: None).result
-    assert result.converged, result.message
-    assert plastic_iterations[0] > 10 and len(differences) > 20
-    assert max(differences) < 1e-13, f"the tangent differs by {max(differences):.2e} (Frobenius)"
-
-
-class ScriptedNewton(Equilibrium):
-    """The Newton loop of :class:`Equilibrium` over scripted iterates: each line search returns
-    the next (step length, ||R|| / F_n) of ``script``; F_n = 1, h = 1, the contact set fixed,
-    and every full step ``increment`` long [h].
-    ``law`` maps a number of line searches done to ||R|| / F_n under the free contact law there
-    (else the same as under the frozen set)."""
-
-    def __init__(self, start: float, script: list, law: dict | None = None,
-                 increment: float = 5e-5):
-        self.options, self.spacing = SolverOptions(), 1.0
-        self.linear_solver = SimpleNamespace(method="iterative")
-        self.flat = SimpleNamespace(symmetric_tangent=True, count=np.count_nonzero)
-        self._active, self._hold_height, self._coupled = None, True, False
-        self._x1 = SimpleNamespace(norm=lambda kind: increment)  # max |du| of a full step [h]
-        self._state = self._iterate(start)
-        self._script = list(script)
-        self._law, self._done = law or {}, 0
-
-    @staticmethod
-    def _iterate(residual: float):
-        contact = SimpleNamespace(node_active=np.ones(4, dtype=bool))
-        return equilibrium_module._Iterate(contact, residual, 0.0)
-
-    def _evaluate(self, normal_force, flat_slide, friction, predictor):
-        if self._active is None and self._done in self._law:
-            return self._iterate(self._law[self._done])
-        return self._state
-
-    def assemble_tangent(self, contact):
-        pass
-
-    def _bordered_solve(self, force_error, tolerance):
-        return 0.0, 1
-
-    def _line_search(self, height_increment, current, normal_force, flat_slide, friction,
-                     full_step):
-        step, residual = self._script.pop(0)
-        self._state = self._iterate(residual)
-        self._done += 1
-        return step, self._state
-
-
-HALVING = [(0.5, 1.2e-5), (0.5, 6e-6), (0.5, 3e-6), (0.5, 1.5e-6), (1.0, 8e-7)]
-FROZEN = [(0.5, 5e-5), (0.5, 3e-5), (0.5, 2e-5)] + HALVING
-
-
-@pytest.mark.parametrize("start, script, law, tolerance, iterations, residual", [
-    # tight: accepted at the first iterate within RESIDUAL_FLOOR after a cut step
-    (2.5e-5, HALVING, None, 1e-6, 2, 6e-6),
-    # ... also in the frozen round (from the 4th iteration), judged under the law
-    (1e-4, FROZEN, None, 1e-6, 5, 6e-6),
-    # ... where the law's residual is above the floor, the frozen round goes on
-    (1e-4, FROZEN, {5: 5e-5}, 1e-6, 6, 3e-6),
-    # a full step into the floor is Newton's quadratic regime: no early stop
-    (2.5e-5, [(1.0, 6e-6), (1.0, 8e-7)], None, 1e-6, 2, 8e-7),
-    # the path's loose solves (1e-4 F_n) go on to their tolerance: their floor would move
-    # the path
-    (2.5e-3, [(step, 100 * residual) for step, residual in HALVING], None, 1e-4, 5, 8e-5),
-])
-def test_a_tight_newton_solve_settles_at_the_floor_once_a_step_is_cut(
-        start, script, law, tolerance, iterations, residual):
-    """Equilibrium._newton accepts an iterate within RESIDUAL_FLOOR times its tolerances as soon
-    as the line search has cut a step, in a solve tighter than the path's, judged under the
-    contact law itself; otherwise it goes on to its tolerances."""
-    newton = ScriptedNewton(start, script, law)
-    report = newton._newton(1.0, 0.0, True, False, tolerance, 1e-4, False)
-    assert report.converged
-    assert report.iterations == iterations
-    assert report.residual == pytest.approx(residual)
-
-
-@pytest.mark.parametrize("tolerance, increment, iterations", [
-    # tight: the forces meet their tolerance, the increment is within the floor: accepted
-    (1e-6, 5e-4, 2),
-    # ... an increment above the floor goes on (here to the iteration limit)
-    (1e-6, 2e-3, None),
-    # the path's loose solves (1e-4 F_n) go on to their tolerances
-    (1e-4, 5e-4, None),
-])
-def test_a_tight_newton_solve_whose_forces_are_converged_settles_at_the_floor(
-        tolerance, increment, iterations):
-    """In a solve tighter than the path's, Equilibrium._newton accepts an iterate whose
-    residuals meet their tolerance with an increment up to RESIDUAL_FLOOR times its own: full
-    Newton steps whose increments do not shrink while the residual falls run along a direction
-    the forces hardly constrain (G1 at F* = 0.155 on 256^2: 7.5e-4 h at 3.6e-8 F_n, 15
-    iterations and a cut). Otherwise it goes on to its tolerances."""
-    scale = tolerance / 1e-6
-    script = [(1.0, scale * 2e-6 * 0.4**k) for k in range(20)]
-    newton = ScriptedNewton(scale * 2.5e-5, script, increment=increment)
-    report = newton._newton(1.0, 0.0, True, False, tolerance, 1e-4, False)
-    assert report.converged == (iterations is not None), report.reason
-    if iterations is not None:
-        assert report.iterations == iterations
-    else:
-        assert "iteration limit" in report.reason
-
-
-def kinked_slope(kink: float, soft: float, stiff: float, calls: list):
-    """s(a) of a Newton step whose energy is quadratic with slope ``soft`` [J per unit step]
-    up to a node touching the flat at a = ``kink``, ``stiff`` beyond; s(0) = -1 J. Records the
-    step lengths it is called at."""
-    def slope(step):
-        calls.append(step)
-        return -1.0 + soft * step + stiff * max(step - kink, 0.0)
-    return slope
-
-
-def test_a_line_search_takes_the_full_step_where_the_energy_is_quadratic():
-    """An exact Newton step on a quadratic energy lands on its minimum: s(1) = 0."""
-    calls = []
-    step = equilibrium_module.line_search_step(kinked_slope(2.0, 1.0, 0.0, calls), -1.0)
-    assert step == 1.0 and calls == [1.0]
-
-
-@pytest.mark.parametrize("kink, stiff", [(0.3, 1e3), (0.05, 1e5), (0.9, 50.0)])
-def test_a_line_search_stops_near_the_least_energy_past_a_contact_kink(kink, stiff):
-    """A node that touches the flat part-way along the step (the penalty ~1e3 times stiffer
-    than the solid): the step ends where |s| <= LINE_SEARCH_SLACK |s(0)|, just past the kink,
-    within the trial budget, and the iterate is left there (the last call)."""
-    calls = []
-    slope = kinked_slope(kink, 0.5, stiff, calls)
-    step = equilibrium_module.line_search_step(slope, -1.0)
-    assert abs(slope(step)) <= equilibrium_module.LINE_SEARCH_SLACK
-    assert calls[-2] == step and len(calls) - 1 <= 1 + equilibrium_module.LINE_SEARCH_TRIALS
-    halved = 1.0  # what halving while the merit s^2 grows would have taken
-    while kinked_slope(kink, 0.5, stiff, [])(halved) ** 2 >= 1.0 and halved > 1 / 32:
-        halved /= 2
-    assert abs(kinked_slope(kink, 0.5, stiff, [])(halved)) > abs(slope(step))
-
-
-def test_a_line_search_bisects_where_the_residual_is_not_finite():
-    """Past a = 0.6 the residual is not finite (inf); the root of s at a = 0.5 is found."""
-    def slope(step):
-        return np.inf if step > 0.6 else -1.0 + 2.0 * step
-    step = equilibrium_module.line_search_step(slope, -1.0)
-    assert abs(slope(step)) <= equilibrium_module.LINE_SEARCH_SLACK
-
-
 def test_the_frictionless_newton_steps_descend_the_energy(monkeypatch):
     """Without friction the step problem minimises a convex energy whose gradient is (R, -r):
     every Newton step of a preload, held or force-controlled, is a descent direction,
     s(0) = du.R - dh r < 0, so its line search is the energy's (no fallback to halving)."""
     slopes = {True: [], False: []}
-    original = Equilibrium._line_search
+    original = NewtonSolve._line_search
 
-    def recorded(self, height_increment, current, normal_force, flat_slide, friction,
-                 full_step):
-        if not friction:
-            slopes[self._hold_height].append(
-                self._x1.dot(self.residual) - height_increment * current.force_error)
-        return original(self, height_increment, current, normal_force, flat_slide, friction,
-                        full_step)
+    def recorded(self, height_increment):
+        if not self.step.friction:
+            slopes[self.step.hold_height].append(
+                self.system.x1.dot(self.system.residual)
+                - height_increment * self.state.force_error)
+        return original(self, height_increment)
 
-    monkeypatch.setattr(Equilibrium, "_line_search", recorded)
+    monkeypatch.setattr(NewtonSolve, "_line_search", recorded)
     heights = np.random.default_rng(7).normal(0.0, 1e-7, (16, 16))
     for load in (0.05, 0.5):  # at 0.05 a step has du.R > 0 > du.R - dh r
         case = FemCase(Surface(heights, 1e-6, "test"), Loading(load, normal_only=True))
@@ -514,3 +281,35 @@ def test_the_frictionless_newton_steps_descend_the_energy(monkeypatch):
         assert result.converged, result.message
     assert len(slopes[True]) > 3 and len(slopes[False]) > 3
     assert max(slopes[True] + slopes[False]) < 0.0
+
+
+def test_a_failed_step_returns_to_the_committed_state():
+    """A random 8 x 8 surface preloaded, then pressed further by a step that is thrown away:
+    restore brings the displacement, the flat's height, the plastic and the contact history
+    back to the committed step exactly; after a later commit, resume returns to the older
+    committed state."""
+    heights = np.random.default_rng(4).normal(0.0, 1e-7, (8, 8))
+    case = FemCase(Surface(heights, 1e-6, "test"), Loading(0.3, normal_only=True))
+    equilibrium = run(case, MPI.COMM_WORLD, progress=lambda record: None).equilibrium
+    committed = equilibrium.committed_state()
+    displacement = equilibrium.displacement.copy()
+    height, plastic = equilibrium.flat_height, equilibrium.solid.committed
+    history = equilibrium.flat.committed
+    further = equilibrium.solve(LoadStep(2.0 * case.normal_force))  # moves u, h and lambda
+    assert equilibrium.flat_height != height
+    assert not np.array_equal(equilibrium.flat.multiplier, history.multiplier)
+    equilibrium.restore()
+    assert equilibrium.flat_height == height and equilibrium.solid.committed is plastic
+    assert equilibrium.flat.committed is history
+    np.testing.assert_array_equal(equilibrium.flat.multiplier, history.multiplier)
+    np.testing.assert_array_equal(equilibrium.displacement.array, displacement.array)
+    equilibrium.flat_height += 1e-9  # a later step, committed
+    equilibrium.commit(further.contact)
+    assert equilibrium.committed.flat_height != height
+    assert equilibrium.flat.committed is not history
+    equilibrium.resume(committed)
+    assert equilibrium.flat_height == height and equilibrium.flat.committed is history
+    assert equilibrium.solid.committed is plastic
+    np.testing.assert_array_equal(equilibrium.displacement.array, displacement.array)
+    equilibrium.destroy()
+    displacement.destroy()

@@ -58,12 +58,11 @@ def test_the_preload_is_solved_to_the_end_only_where_the_run_ends_there(monkeypa
     solve = Equilibrium.solve
     calls = []
 
-    def spied(self, normal_force, flat_slide, friction, hold_height=False, predictor=True,
-              marks_path=False, exact_tangent=False):
-        report = solve(self, normal_force, flat_slide, friction, hold_height, predictor,
-                       marks_path, exact_tangent)
-        if not friction:
-            calls.append((marks_path, self.flat.penetration(report.contact) / self.spacing))
+    def spied(self, step):
+        report = solve(self, step)
+        if not step.friction:
+            calls.append((step.marks_path,
+                          self.flat.penetration(report.contact) / self.spacing))
         return report
 
     monkeypatch.setattr(Equilibrium, "solve", spied)

@@ -1,0 +1,491 @@
+"""The Newton driver of one load step: Newton solves of the reduced system
+(:mod:`solver.reduced_system`) at fixed contact multipliers, with a line search and a frozen
+contact set, between Uzawa updates of the multipliers.
+
+A Newton solve is converged when ||R|| <= tol_R F_n, |r| <= tol_R F_n and the last
+max |du| <= tol_u h. A line search along each Newton step (du, dh) seeks the root of the slope
+s = du.R - dh r of the step's energy, which damps contact and yield overshoot; a solve whose
+residual stops halving is abandoned (the step is then cut). A load step is converged
+when, after Uzawa updates of the contact multipliers (Newton stops at looser tolerances between
+updates), no contact point penetrates deeper than tol_g h. A step that only marks the path takes
+one update at its end instead, which the next step's solve absorbs (``CARRIED_PENETRATION``).
+"""
+
+from __future__ import annotations
+
+import itertools
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+from petsc4py import PETSc
+from roughfriction.solver.contact import ContactResponse
+from roughfriction.solver.linear import LinearSolveError
+from roughfriction.solver.reduced_system import SMALLEST_TOLERANCE
+
+#: Trial steps of a line search after the full Newton step, before the last is taken anyway [-].
+LINE_SEARCH_TRIALS = 5
+#: A line search accepts a step length a where the slope of the energy along the Newton step,
+#: s(a) = du.R(a) - dh r(a), has |s(a)| <= this times |s(0)| (s(1) <= it for the full step) [-].
+LINE_SEARCH_SLACK = 0.25
+#: Give a step up when ||R|| + |r| has not halved over this many iterations (stick/slip or
+#: open/closed cycling; the step is then cut) [-].
+STAGNATION_WINDOW = 4
+#: A Newton solve that stagnates with ||R||, |r| and max |du| within this factor of their
+#: tolerances, under the contact law itself, has reached the floor set by the inexact Krylov
+#: solves and the kinks of the contact law: it is accepted, not cut (Newton tolerances 1e-4
+#: and 1e-8 F_n give the same mu_s to 0.06 %). A solve to tolerances tighter than the path's
+#: (``UZAWA_RESIDUAL_TOLERANCE``) is accepted there as soon as its line search has cut a step:
+#: a kink lies between the iterate and the solution (a node at the edge of contact, whose shear
+#: cap follows its pressure; points at the yield surface), and Newton only halves the residual
+#: per iteration from there; and as soon as its residuals meet their tolerance: the forces are
+#: converged, and an increment still above its own lies along a direction they hardly
+#: constrain (slipping points on the cap's ramp make the exact tangent nearly singular) [-].
+RESIDUAL_FLOOR = 10.0
+#: Newton iterations with the contact law free; then the contact set is frozen until the
+#: iterate converges: its nodes stay in contact, and nodes that penetrate join it (the set
+#: only grows: no open/closed cycling, and a flat carried by a few yielding peaks cannot sink
+#: through open nodes it does not see); the iterate is accepted if it also meets the
+#: tolerances under the law itself, else the set is re-frozen at the law's set there (a primal
+#: active-set strategy). The slip set is not frozen: a frozen slipping point below the cap has
+#: a traction direction that jumps with a tiny trial vector [-].
+FREEZE_AFTER = 3
+#: Active-set rounds (freezes) per Newton solve [-]. Each round has its own budget of
+#: ``max_iterations``, and a new round is started only while fewer nodes change their contact
+#: state than at the last one (no cycling).
+MAX_ROUNDS = 5
+#: Newton solves between Uzawa updates stop at ||R||, |r| <= this times F_n and max |du| <=
+#: UZAWA_INCREMENT_TOLERANCE h (or the solver's tolerances if looser); once the penetration is
+#: within its tolerance, one more solve with the same multipliers meets the solver's
+#: tolerances (multipliers need an equilibrium only as good as their own error) [-].
+UZAWA_RESIDUAL_TOLERANCE = 1e-4
+UZAWA_INCREMENT_TOLERANCE = 1e-2
+#: A step that marks the path leaves its multiplier update to the next step while its deepest
+#: penetration is within this times the penetration tolerance; deeper (a penalty soft against
+#: the solid, e.g. a locking mesh), the update would shift the load the flat carries, and the
+#: step is re-solved [-].
+CARRIED_PENETRATION = 10.0
+#: Krylov tolerance = FORCING_FACTOR x (||R|| + |r|) / F_n, clipped to [FORCING_MIN, FORCING_MAX].
+FORCING_FACTOR = 0.1
+FORCING_MIN = SMALLEST_TOLERANCE
+FORCING_MAX = 1e-3
+#: ... but never tighter than FORCING_SAFEGUARD x the Newton tolerance / (||R|| + |r|) / F_n
+#: (at most FORCING_SAFEGUARD_MAX): a linear residual below the Newton tolerance is not needed
+#: to meet it (Eisenstat-Walker's safeguard; Kelley, Iterative Methods for Linear and Nonlinear
+#: Equations, 1995, Sec. 6.3) [-].
+FORCING_SAFEGUARD = 0.5
+FORCING_SAFEGUARD_MAX = 0.1
+
+
+@dataclass(frozen=True)
+class LoadStep:
+    """One load step and how it is solved.
+
+    Attributes
+    ----------
+    normal_force : float
+        F_n to hold [N]; with ``hold_height``, only the force scale of the tolerances.
+    flat_slide : float
+        The flat's x displacement U [m].
+    friction : bool
+        Frictional contact (tangential phase) or frictionless (preload).
+    hold_height : bool
+        Keep the flat at its current height h (displacement control: one linear solve per
+        Newton iteration, and no limit point while a few yielding peaks carry the flat)
+        instead of solving for the h that carries ``normal_force``.
+    predictor : bool
+        A tangential step's first solve starts with the tangential predictor of
+        :meth:`RigidFlat.respond` (False: the caller has placed a first iterate).
+    marks_path : bool
+        The step only marks the loading path to the state that is reported (a preload step
+        that sliding follows, a sliding step before inception): it ends at the looser Newton
+        tolerances of the solves between Uzawa updates, after one solve: if a node penetrates
+        deeper than the tolerance (but within ``CARRIED_PENETRATION`` times it), the
+        multipliers are updated and the update is carried into the next step, whose first
+        solve absorbs it, instead of a re-solve here.
+    exact_tangent : bool
+        Newton starts with the exact tangent instead of the symmetric one
+        (:class:`NewtonSolve`).
+    """
+
+    normal_force: float
+    flat_slide: float = 0.0
+    friction: bool = False
+    hold_height: bool = False
+    predictor: bool = True
+    marks_path: bool = False
+    exact_tangent: bool = False
+
+
+@dataclass(frozen=True)
+class Tolerances:
+    """Tolerances of a Newton solve: ||R||, |r| <= ``residual`` F_n and max |du| <=
+    ``increment`` h [-]."""
+
+    residual: float
+    increment: float
+
+
+@dataclass(frozen=True)
+class NewtonReport:
+    """Outcome of one load step's Newton loop.
+
+    Attributes
+    ----------
+    converged : bool
+        Tolerances met within the iteration limit.
+    iterations : int
+        Newton iterations (linear solves of the bordered system) [-].
+    krylov_iterations : int
+        Sum of Krylov iterations over both solves of every iteration [-].
+    residual : float
+        Final ||R|| / F_n [-].
+    contact : ContactResponse
+        Contact state at the final iterate.
+    reason : str
+        Why it did not converge ("" if it did).
+    """
+
+    converged: bool
+    iterations: int
+    krylov_iterations: int
+    residual: float
+    contact: ContactResponse
+    reason: str = ""
+
+
+@dataclass(frozen=True)
+class _Iterate:
+    """Contact state and residual norms at one Newton iterate."""
+
+    contact: ContactResponse
+    residual: float  # ||R|| [N]
+    force_error: float  # r = sum p a - F_n [N]
+
+    @property
+    def merit(self) -> float:
+        """||R||^2 + r^2 [N^2]."""
+        return self.residual**2 + self.force_error**2
+
+
+def line_search_step(slope: Callable[[float], float], initial_slope: float) -> float:
+    """Step length a in (0, 1] along a Newton step: the full step if the energy's slope there,
+    s(1), is <= ``LINE_SEARCH_SLACK`` |s(0)|, else a root of s bracketed in [0, 1], by the
+    secant through the last two trials (exact once both lie past a kink of s, e.g. a node that
+    touches the flat) or bisection where that leaves the inner 80 % of the bracket, until
+    |s(a)| <= ``LINE_SEARCH_SLACK`` |s(0)| or ``LINE_SEARCH_TRIALS`` trials (the last is taken).
+
+    ``slope(a)`` moves the iterate to a and returns s(a) [J] (inf if the residual there is not
+    finite); ``initial_slope`` is s(0) < 0 [J]. Returns the a of the last call of ``slope``.
+    """
+    threshold = LINE_SEARCH_SLACK * abs(initial_slope)
+    low, high = 0.0, 1.0
+    older, older_slope = 0.0, initial_slope
+    last, last_slope = 1.0, slope(1.0)
+    if last_slope <= threshold:
+        return 1.0
+    for _ in range(LINE_SEARCH_TRIALS):
+        step = np.nan
+        if np.isfinite(older_slope) and np.isfinite(last_slope) and last_slope != older_slope:
+            step = last - last_slope * (last - older) / (last_slope - older_slope)
+        width = high - low
+        if not low + 0.1 * width <= step <= high - 0.1 * width:
+            step = low + 0.5 * width
+        older, older_slope = last, last_slope
+        last, last_slope = step, slope(step)
+        if abs(last_slope) <= threshold:
+            break
+        if last_slope > 0.0:
+            high = step
+        else:
+            low = step
+    return last
+
+
+def forcing_term(state: _Iterate, normal_force: float, residual_tolerance: float) -> float:
+    """Relative Krylov tolerance of a Newton solve to ``residual_tolerance`` F_n, proportional
+    to the relative nonlinear residual (inexact Newton, Eisenstat-Walker choice 2 with exponent
+    1): loose far from the solution, tight near it, so convergence stays quadratic without
+    over-solving early iterations, and never tighter than the Newton tolerance
+    ``residual_tolerance`` needs (0: no such bound) [-]."""
+    relative_residual = (state.residual + abs(state.force_error)) / normal_force
+    forcing = min(FORCING_MAX, max(FORCING_MIN, FORCING_FACTOR * relative_residual))
+    if relative_residual == 0.0:
+        return forcing
+    return max(forcing, min(FORCING_SAFEGUARD_MAX,
+                            FORCING_SAFEGUARD * residual_tolerance / relative_residual))
+
+
+def solve_load_step(equilibrium, step: LoadStep) -> NewtonReport:
+    """One load step on ``equilibrium`` (:class:`solver.equilibrium.Equilibrium`, from its
+    current iterate): Newton solves (:class:`NewtonSolve`) with Uzawa updates of the contact
+    multipliers until no contact node penetrates deeper than the tolerance."""
+    options, flat = equilibrium.options, equilibrium.flat
+    tolerance = options.penetration_tolerance * equilibrium.spacing
+    tight = Tolerances(options.residual_tolerance, options.increment_tolerance)
+    tolerances = Tolerances(max(tight.residual, UZAWA_RESIDUAL_TOLERANCE),
+                            max(tight.increment, UZAWA_INCREMENT_TOLERANCE))
+    if step.marks_path:
+        tight = tolerances
+    iterations = krylov = updates = solves = 0
+    carried = False  # the last update is left to the next step
+    while True:
+        # the tangential predictor belongs to the first solve of a step only
+        predictor = step.predictor and step.friction and solves == 0
+        report = NewtonSolve(equilibrium, step, tolerances, predictor).run()
+        solves += 1
+        iterations += report.iterations
+        krylov += report.krylov_iterations
+        penetration = flat.penetration(report.contact)
+        if not report.converged:
+            break
+        if penetration <= tolerance:
+            if tolerances == tight:
+                break
+            tolerances = tight  # the multipliers are good: solve to the tolerances
+            continue
+        if updates == options.max_augmentations:
+            break
+        flat.augment(report.contact)
+        updates += 1
+        carried = step.marks_path and penetration <= CARRIED_PENETRATION * tolerance
+        if carried:
+            break  # the next step's solve absorbs the update (commit keeps it)
+    reason = report.reason
+    if report.converged and penetration > tolerance and not carried:
+        reason = (f"penetration {penetration / equilibrium.spacing:.2e} h > tolerance "
+                  f"{options.penetration_tolerance:.0e} h after "
+                  f"{options.max_augmentations} multiplier updates")
+    return NewtonReport(not reason, iterations, krylov, report.residual, report.contact, reason)
+
+
+class NewtonSolve:
+    """Newton iterations from the current iterate of ``equilibrium`` with fixed multipliers
+    until ||R||, |r| <= ``tolerances.residual`` F_n and max |du| <= ``tolerances.increment`` h
+    (``predictor``: start with the tangential predictor of :meth:`RigidFlat.respond`).
+
+    The iterations start with the symmetric tangent (:attr:`RigidFlat.symmetric_tangent`:
+    CG, and no stick/slip cycling driven by the cap's ramp) and go on with the exact one if
+    they stagnate or reach the iteration limit while slipping points sit on the ramp (the
+    symmetric tangent then converges only linearly); with ``step.exact_tangent`` they start
+    with the exact one. Where the exact tangent says that lowering the flat would unload it
+    (dr/dh >= 0: singular, through the ramp's coupling, whose friction coefficient
+    tau_c / p_r is far above 1), that Newton step is taken with the symmetric one.
+    """
+
+    def __init__(self, equilibrium, step: LoadStep, tolerances: Tolerances, predictor: bool):
+        self.equilibrium, self.step, self.predictor = equilibrium, step, predictor
+        self.system, self.flat = equilibrium.system, equilibrium.flat
+        self.max_iterations = equilibrium.options.max_iterations
+        self.tolerance_force = tolerances.residual * step.normal_force
+        self.tolerance_increment = tolerances.increment * equilibrium.spacing
+        # the forcing term's safeguard for the iterative method only: CG on reused Cholesky
+        # factors gains nothing from it, and its Newton path then stays the same on any number
+        # of ranks to round-off (GAMG's aggregates depend on the partition anyway)
+        iterative = self.system.linear_solver.method == "iterative"
+        self.safeguarded = tolerances.residual if iterative else 0.0
+        self.settles_on_kink = tolerances.residual < UZAWA_RESIDUAL_TOLERANCE  # RESIDUAL_FLOOR
+        self.active = None  # the frozen contact set of the nodes, or None
+        self.increment, self.krylov = 0.0, 0
+        self.cut = False  # the last line search cut the Newton step
+        self.singular = False  # the exact tangent was singular at this iterate
+        self.history = []  # ||R|| + |r| of the iterates [N]
+        self.rounds, self.changes, self.limit = 0, np.inf, self.max_iterations
+        self.iteration, self.stagnating = 0, False
+        self.state = None
+
+    def run(self) -> NewtonReport:
+        """Iterate to convergence or failure."""
+        self.flat.symmetric_tangent = not self.step.exact_tangent
+        self.state = self._evaluate(self.predictor)
+        for self.iteration in itertools.count():
+            report = self._judge()
+            if report is not None:
+                return report
+            reason = self._advance()
+            if reason:
+                return self._report(reason)
+
+    # --- judging an iterate -------------------------------------------------------------------
+
+    def _forces_met(self, state: _Iterate, factor: float = 1.0) -> bool:
+        return (state.residual <= factor * self.tolerance_force
+                and abs(state.force_error) <= factor * self.tolerance_force)
+
+    def _converged(self, state: _Iterate, factor: float = 1.0) -> bool:
+        return (not self.predictor and self._forces_met(state, factor)
+                and self.increment <= factor * self.tolerance_increment)
+
+    def _judge(self) -> NewtonReport | None:
+        """The report to stop with at the current iterate (converged, at the floor, or failed),
+        else None."""
+        if self._converged(self.state) and self.active is not None:
+            reason = self._settle_frozen_set()
+            if reason:
+                return self._report(reason)
+        if self._converged(self.state) and self.active is None:
+            return self._report()
+        state = self.state
+        self.history.append(state.residual + abs(state.force_error))
+        self.stagnating = (len(self.history) > STAGNATION_WINDOW + 2
+                           and self.history[-1] > 0.5 * self.history[-1 - STAGNATION_WINDOW])
+        if not np.isfinite(state.merit):
+            return self._report("residual not finite")
+        if (self.stagnating or ((self.cut or self._forces_met(state)) and self.settles_on_kink
+                                and self._converged(state, RESIDUAL_FLOOR))):
+            if self._at_floor():
+                return self._report()
+        return None
+
+    def _settle_frozen_set(self) -> str:
+        """Converged with a frozen set: judge the iterate by the contact law itself (nodes that
+        flip at a negligible force no longer cycle), else re-freeze at the law's set there for
+        a new round while the set settles. Returns why not, if the set cycles ("" else)."""
+        frozen, self.active = self.active, None
+        self.state = self._evaluate(False)
+        if self._converged(self.state):
+            return ""
+        previous, self.changes = self.changes, self.flat.count(
+            self.state.contact.node_active != frozen)
+        if self.changes >= previous or self.rounds == MAX_ROUNDS:
+            return (f"contact set cycling ({self.changes} nodes change state after "
+                    f"{self.rounds} frozen round(s))")
+        self.active = self.state.contact.node_active
+        self.rounds += 1
+        self.limit = self.iteration + self.max_iterations
+        self.history.clear()
+        return ""
+
+    def _at_floor(self) -> bool:
+        """The iterate is within ``RESIDUAL_FLOOR`` of the tolerances under the contact law
+        itself (a frozen round goes on if not, unless it stagnates)."""
+        frozen = self.active
+        if frozen is not None:  # judge the floor under the contact law itself
+            self.active = None
+            self.state = self._evaluate(False)
+        if self._converged(self.state, RESIDUAL_FLOOR):
+            return True
+        if not self.stagnating:  # above the floor under the law: the frozen round goes on
+            self.active = frozen
+            self.state = self._evaluate(False)
+        return False
+
+    def _where(self) -> str:
+        state, normal_force = self.state, self.step.normal_force
+        return (f"residual {state.residual / normal_force:.1e} F_n, force error "
+                f"{abs(state.force_error) / normal_force:.1e} F_n, last increment "
+                f"{self.increment / self.equilibrium.spacing:.1e} h")
+
+    def _report(self, reason: str = "") -> NewtonReport:
+        return NewtonReport(not reason, self.iteration, self.krylov,
+                            self.state.residual / self.step.normal_force, self.state.contact,
+                            reason)
+
+    # --- one iteration ------------------------------------------------------------------------
+
+    def _advance(self) -> str:
+        """One Newton iteration, or a change of tangent or of the flat's height; returns why
+        the solve fails ("" if it goes on)."""
+        if ((self.stagnating or self.iteration == self.limit) and self.flat.symmetric_tangent
+                and self.system.coupled and not self.singular):
+            # slipping points on the cap's ramp: go on with the exact tangent
+            self.flat.symmetric_tangent = False
+            self.state = self._evaluate(False)
+            self.history.clear()
+            self.limit = self.iteration + self.max_iterations
+            return ""
+        if self.stagnating:
+            return (f"residual not halved in {STAGNATION_WINDOW} iterations (stick/slip "
+                    f"or open/closed cycling; {self._where()})")
+        if self.iteration == self.limit:
+            return f"iteration limit {self.max_iterations} ({self._where()})"
+        if self.flat.count(self.state.contact.node_active) == 0 and not self.step.hold_height:
+            self.equilibrium.place_flat(self.step.normal_force)
+            self.state = self._evaluate(self.predictor)
+            self.increment = np.inf
+            return ""
+        if self.iteration == FREEZE_AFTER and self.active is None:
+            self.active = self.state.contact.node_active
+            self.rounds = 1
+            self.history.clear()  # the frozen problem's residuals start their own record
+        return self._newton_step()
+
+    def _newton_step(self) -> str:
+        """Solve for the Newton direction and move along it by the line search; returns why
+        the linear solve failed ("" if it did not)."""
+        system, step = self.system, self.step
+        self.equilibrium.assemble_tangent(self.state.contact)
+        try:
+            height_increment, its = system.bordered_solve(
+                self.state.force_error,
+                forcing_term(self.state, step.normal_force, self.safeguarded), step.hold_height)
+        except LinearSolveError as error:
+            return str(error)
+        self.krylov += its
+        if not (step.hold_height or system.symmetric) and system.height_slope() >= 0.0:
+            # lowering the flat would unload it: the exact tangent is singular here (the
+            # ramp's coupling); this Newton step is taken with the symmetric one instead
+            self.flat.symmetric_tangent, self.singular = True, True
+            self.state = self._evaluate(False)
+            return ""
+        length = self._line_search(height_increment)
+        self.increment = length * system.x1.norm(PETSc.NormType.NORM_INFINITY)
+        self.cut = length < 1.0
+        self.predictor = False
+        if self.singular:  # back to the exact tangent
+            self.flat.symmetric_tangent, self.singular = False, False
+            self.state = self._evaluate(False)
+        if self.active is not None:  # nodes that entered contact stay in this round
+            self.active = self.state.contact.node_active
+        return ""
+
+    def _evaluate(self, predictor: bool) -> _Iterate:
+        """Assemble at the current iterate and measure its residuals."""
+        step = self.step
+        contact = self.equilibrium.assemble(step.flat_slide, step.friction, predictor,
+                                            self.active)
+        force_error = (0.0 if step.hold_height
+                       else self.flat.normal_force(contact) - step.normal_force)
+        return _Iterate(contact, self.system.residual.norm(), force_error)
+
+    def _line_search(self, height_increment: float) -> float:
+        """Apply the Newton step (du in x1, dh) with the step length of :func:`line_search_step`
+        and return the step length (the iterate there becomes :attr:`state`).
+
+        Frictionless, the step problem minimises a convex energy of (u, h): the solid's
+        incremental J2 potential, the penalty's and F_n h. R and -r are its gradient, and
+        s(a) = du.R(a) - dh r(a) its slope along the step, which grows with a. Contact and yield
+        make it only piecewise smooth: a full step that pushes open nodes into the flat or
+        unloads yielding points overshoots, and the root of s is where the energy is least.
+        With friction s is the same projection of the residual (a heuristic: slip dissipates),
+        used while the tangent is the symmetric one. With the exact tangent (slipping points
+        whose cap follows their pressure), or where the energy does not descend along the step
+        (s(0) >= 0), the step is halved while ||R||^2 + r^2 grows. The tangential
+        predictor's step is always taken (its residual is not comparable).
+        """
+        system, current = self.system, self.state
+        position = 0.0
+
+        def slope(length: float) -> float:
+            nonlocal position
+            self.equilibrium.advance(length - position, height_increment)
+            position = length
+            self.state = self._evaluate(False)
+            if not np.isfinite(self.state.merit):
+                return np.inf
+            return system.x1.dot(system.residual) - height_increment * self.state.force_error
+
+        if self.predictor:
+            slope(1.0)
+            return 1.0
+        initial_slope = system.x1.dot(system.residual) - height_increment * current.force_error
+        if initial_slope < 0.0 and (not self.step.friction or self.flat.symmetric_tangent):
+            return line_search_step(slope, initial_slope)
+        length = 1.0
+        slope(length)
+        for _ in range(LINE_SEARCH_TRIALS):
+            if self.state.merit < current.merit:
+                break
+            length *= 0.5
+            slope(length)
+        return length

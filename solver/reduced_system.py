@@ -1,0 +1,326 @@
+"""The Newton system of the reduced unknowns in PETSc: the residual R of the periodic solid and
+the flat, the height column b = dR/dh, the force row c = dr/du, the tangent K, and the solve of
+the bordered system
+
+    [ K    b ] [du]     [R]          d = dr/dh = -sum_k c_k
+    [ c^T  d ] [dh] = - [r]
+
+with one operator: K x1 = -R, K x2 = -b, dh = -(r + c.x1) / (c.x2 + d), du = x1 + dh x2
+(r = sum_k p_k a_k - F_n, the force condition; c = -b on the z rows; b also has x-y entries
+where a slipping point's shear cap follows its pressure, see :mod:`solver.contact`).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from dolfinx.fem import petsc as fem_petsc
+from mpi4py import MPI
+from petsc4py import PETSc
+from roughfriction.case import SolverOptions
+from roughfriction.solver.contact import NEIGHBOURS, ContactResponse, RigidFlat
+from roughfriction.solver.linear import LinearSolver
+from roughfriction.solver.periodic import PeriodicReduction
+from roughfriction.solver.solid import Solid
+
+#: Above this fraction of the cells yielding, the plastic correction is reduced with the elastic
+#: part on the whole mesh (P^T K P with its pattern reused), below it on the yielding cells'
+#: couplings alone (whose cost grows with them; measured crossover 15-20 % at N = 64) [-].
+WHOLE_MESH_YIELDING = 0.15
+#: The tightest relative Krylov tolerance asked of a linear solve [-].
+SMALLEST_TOLERANCE = 1e-10
+
+
+class ReducedSystem:
+    """R, b, c and K of the reduced system, assembled at an iterate, and its bordered solve.
+
+    Parameters
+    ----------
+    solid : Solid
+        The deformable block.
+    reduction : PeriodicReduction
+        u = P u_red.
+    flat : RigidFlat
+        Contact nodes owned by this rank.
+    options : SolverOptions
+        The linear-solver choice.
+
+    Attributes
+    ----------
+    residual : petsc4py.PETSc.Vec
+        R [N] at the last :meth:`assemble`.
+    tangent : petsc4py.PETSc.Mat
+        K [N/m] at the last :meth:`assemble_tangent`.
+    x1 : petsc4py.PETSc.Vec
+        The Newton direction du [m] after :meth:`bordered_solve`.
+    x2 : petsc4py.PETSc.Vec
+        du/dh [-] after :meth:`solve_height_column`.
+    symmetric, coupled : bool
+        The last tangent is symmetric; some slipping point's cap followed its pressure there.
+    """
+
+    def __init__(self, solid: Solid, reduction: PeriodicReduction, flat: RigidFlat,
+                 options: SolverOptions):
+        self.solid, self.reduction, self.flat = solid, reduction, flat
+        self.comm = solid.V.mesh.comm
+        self._elastic_tangent = fem_petsc.create_matrix(solid.elastic_tangent_forms[0])
+        for form in solid.elastic_tangent_forms:
+            fem_petsc.assemble_matrix(self._elastic_tangent, form)
+        self._elastic_tangent.assemble()
+        self._residual_full = fem_petsc.create_vector(solid.residual_forms[0])
+        self._elastic_system = None  # P^T K_elastic P in the system's pattern, at first assembly
+        self._tangent_full = None  # K_elastic + K_plastic on the whole mesh, once needed
+        self._solid_tangent = None  # its P^T K P
+        self.tangent = None  # P^T K P + contact, created at the first assembly
+        self._uncoupled_tangent = None  # the tangent without dt/dp, once it is not symmetric
+        self.symmetric = True
+        self.coupled = False
+        self.residual = reduction.create_reduced_vector()
+        self.height_column = reduction.create_reduced_vector()  # b = dR/dh
+        self.force_row = reduction.create_reduced_vector()  # c = dr/du
+        self.x1 = reduction.create_reduced_vector()
+        self.x2 = reduction.create_reduced_vector()
+
+        num_dofs = 3 * reduction.num_reduced_global
+        method = options.linear_solver
+        if method == "auto":
+            method = "direct" if num_dofs <= options.direct_limit else "iterative"
+        self.linear_solver = LinearSolver(self.comm, method)
+        self._near_nullspace = (reduction.near_nullspace(solid.V.tabulate_dof_coordinates())
+                                if method == "iterative" else None)
+        self._index_contact_rows()
+
+    def _index_contact_rows(self) -> None:
+        """Reduced rows of the owned surface nodes and the reduced nodes of their 25 neighbours
+        on the periodic surface grid (the columns of the contact tangent)."""
+        flat, n = self.flat, self.flat.grid_size
+        node_reduced = flat.gather_nodes(self.reduction.reduced_node[flat.nodes])
+        i, j = np.divmod(flat.owned_grid, n)
+        neighbours = (((i[:, None] + NEIGHBOURS[:, 0]) % n) * n
+                      + (j[:, None] + NEIGHBOURS[:, 1]) % n)
+        self._contact_rows = (3 * node_reduced[flat.owned_grid][:, None]
+                              + np.arange(3)).astype(PETSc.IntType)
+        self._contact_columns = node_reduced[neighbours].astype(PETSc.IntType)
+        self._owned_position = np.full(n * n, -1)  # grid node -> owned surface node, or -1
+        self._owned_position[flat.owned_grid] = np.arange(len(flat.owned_grid))
+
+    # --- assembly -------------------------------------------------------------------------
+
+    def assemble(self, displacement: PETSc.Vec, flat_height: float, flat_slide: float,
+                 friction: bool, predictor: bool = False, active: np.ndarray | None = None
+                 ) -> ContactResponse:
+        """Stress update, R, b and c at the reduced displacement u_red [m] and the flat at
+        height h [m] and slide U [m] (the contact arguments as in :meth:`RigidFlat.respond`).
+        The tangent is assembled separately (:meth:`assemble_tangent`), only where a linear
+        solve needs it: line-search trials need the residual alone."""
+        solid = self.solid
+        self.reduction.expand(displacement, solid.displacement)
+        solid.update_stress()
+        with self._residual_full.localForm() as local:
+            local.set(0.0)
+        for form in solid.residual_forms:
+            fem_petsc.assemble_vector(self._residual_full, form)
+        self._residual_full.ghostUpdate(PETSc.InsertMode.ADD_VALUES, PETSc.ScatterMode.REVERSE)
+        self.reduction.restrict(self._residual_full, self.residual)
+
+        contact = self.flat.respond(solid.displacement.x.array.reshape(-1, 3), flat_height,
+                                    flat_slide, friction, predictor, active)
+        owned = self.flat.owned_grid
+        self.residual.setValues(self._contact_rows.ravel(), contact.node_force[owned].ravel(),
+                                addv=PETSc.InsertMode.ADD_VALUES)
+        self.residual.assemble()
+        self.height_column.set(0.0)
+        height_derivative = contact.node_height_derivative[owned]
+        self.height_column.setValues(self._contact_rows.ravel(), height_derivative.ravel())
+        self.height_column.assemble()
+        self.force_row.set(0.0)  # r = sum p a - F_n: dr/du_z = eps a = -dR_z/dh
+        self.force_row.setValues(self._contact_rows[:, 2], -height_derivative[:, 2])
+        self.force_row.assemble()
+        return contact
+
+    def assemble_tangent(self, contact: ContactResponse) -> None:
+        """K = P^T K_elastic P + P^T K_plastic P plus the contact's 3 x 3 blocks of each surface
+        node and its 25 neighbours, at the iterate of the last :meth:`assemble` (whose
+        ``contact`` response is passed).
+
+        The reduced elastic part is built once, in a matrix with the contact's pattern as well
+        (:meth:`_system_matrix`), and copied at each assembly. While few cells yield
+        (``WHOLE_MESH_YIELDING``), the plastic correction is assembled and reduced on their
+        couplings alone and added row by row; else the whole tangent is reduced on the whole
+        mesh. The blocks of the nodes that touch are added row by row.
+        """
+        if self.tangent is None:
+            self._create_tangent()
+        plastic = self.solid.plastic_tangent_form()
+        if plastic is not None and self.solid.yielding_fraction() > WHOLE_MESH_YIELDING:
+            self._reduce_whole_mesh(plastic)
+        else:
+            self._elastic_system.copy(self.tangent,
+                                      structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
+            if plastic is not None:
+                self._add_plastic_correction(plastic)
+        self._add_node_blocks(self.tangent, *contact.node_blocks)
+        self.tangent.assemble()
+        self.symmetric = self.comm.allreduce(contact.symmetric, op=MPI.LAND)
+        self.coupled = self.comm.allreduce(contact.coupled, op=MPI.LOR)
+        if not self.symmetric:
+            self._assemble_uncoupled_tangent(contact)
+
+    def _create_tangent(self) -> None:
+        """The reduced elastic part in the system's pattern, and the tangent matrix."""
+        elastic = self.reduction.reduce_matrix(self._elastic_tangent)
+        self._elastic_system = self._system_matrix(elastic)
+        self._elastic_system.axpy(1.0, elastic,
+                                  structure=PETSc.Mat.Structure.SUBSET_NONZERO_PATTERN)
+        elastic.destroy()
+        self.tangent = self._elastic_system.duplicate(copy=False)
+        if self._near_nullspace is not None:
+            self.tangent.setNearNullSpace(self._near_nullspace)
+
+    def _add_node_blocks(self, matrix: PETSc.Mat, nodes: np.ndarray, blocks: np.ndarray,
+                         scale: float = 1.0) -> None:
+        """Add ``scale`` times the contact's 3 x 3 ``blocks`` [N/m] of the surface ``nodes``
+        (grid nodes) and their 25 neighbours to ``matrix``: one block row (3 x 75 values,
+        row-major) per owned node."""
+        owned = self._owned_position[nodes]
+        touching = owned >= 0
+        if np.any(touching):
+            owned = owned[touching]
+            matrix.setValuesBlockedRCV(
+                self._contact_rows[owned, :1] // 3, self._contact_columns[owned],
+                scale * blocks[touching].transpose(0, 2, 1, 3).reshape(len(owned), -1),
+                addv=PETSc.InsertMode.ADD_VALUES)
+
+    def _assemble_uncoupled_tangent(self, contact: ContactResponse) -> None:
+        """The preconditioning matrix of a non-symmetric tangent: the tangent without the
+        ramp's coupling dt/dp (:attr:`ContactResponse.coupling_blocks`), i.e. the symmetric
+        positive definite tangent of :attr:`RigidFlat.symmetric_tangent`."""
+        if self._uncoupled_tangent is None:
+            self._uncoupled_tangent = self.tangent.duplicate(copy=True)
+            if self._near_nullspace is not None:
+                self._uncoupled_tangent.setNearNullSpace(self._near_nullspace)
+        else:
+            self.tangent.copy(self._uncoupled_tangent,
+                              structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
+        self._add_node_blocks(self._uncoupled_tangent, *contact.coupling_blocks, scale=-1.0)
+        self._uncoupled_tangent.assemble()
+
+    def _add_plastic_correction(self, plastic) -> None:
+        """Add P^T K_plastic P to the tangent, assembled and reduced on the couplings of the
+        yielding cells (the ``plastic`` form's cells) alone, row by row."""
+        correction = fem_petsc.assemble_matrix(plastic)
+        correction.assemble()
+        reduced = self.reduction.reduce_matrix(correction)
+        row_pointer, columns, values = reduced.getValuesCSR()
+        rows = np.flatnonzero(np.diff(row_pointer))
+        if len(rows):  # (petsc4py divides by the number of values)
+            self.tangent.setValuesIJV(
+                np.append(row_pointer[rows], row_pointer[-1]), columns, values,
+                addv=PETSc.InsertMode.ADD_VALUES,
+                rowmap=(rows + reduced.getOwnershipRange()[0]).astype(PETSc.IntType))
+        correction.destroy()
+        reduced.destroy()
+
+    def _reduce_whole_mesh(self, plastic) -> None:
+        """Set the tangent to P^T (K_elastic + K_plastic) P, assembled and reduced on the whole
+        mesh (matrices kept, P^T K P's pattern reused)."""
+        if self._tangent_full is None:
+            self._tangent_full = self._elastic_tangent.duplicate(copy=True)
+        else:
+            self._elastic_tangent.copy(self._tangent_full,
+                                       structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
+        fem_petsc.assemble_matrix(self._tangent_full, plastic)
+        self._tangent_full.assemble()
+        self._solid_tangent = self.reduction.reduce_matrix(self._tangent_full,
+                                                           self._solid_tangent)
+        self.tangent.zeroEntries()
+        self.tangent.axpy(1.0, self._solid_tangent,
+                          structure=PETSc.Mat.Structure.SUBSET_NONZERO_PATTERN)
+
+    def _system_matrix(self, solid: PETSc.Mat) -> PETSc.Mat:
+        """A zero matrix with the nonzeros of ``solid`` (P^T K P) and of the contact blocks: the
+        rows of each owned surface node gain the columns of its 25 neighbours."""
+        start, end = solid.getOwnershipRange()
+        row_pointer, columns, _ = solid.getValuesCSR()
+        rows = np.repeat(np.arange(end - start), np.diff(row_pointer))
+        contact_rows = self._contact_rows - start  # (m, 3)
+        if np.any((contact_rows < 0) | (contact_rows >= end - start)):
+            raise RuntimeError("a surface node's reduced rows are owned by another rank")
+        contact_columns = (3 * self._contact_columns[:, :, None] + np.arange(3)).reshape(
+            len(contact_rows), 1, -1)  # (m, 1, 75)
+        rows = np.concatenate([rows, np.broadcast_to(
+            contact_rows[:, :, None], (len(contact_rows), 3, contact_columns.shape[2])).ravel()])
+        columns = np.concatenate([columns, np.broadcast_to(
+            contact_columns, (len(contact_rows), 3, contact_columns.shape[2])).ravel()])
+        size = solid.getSize()[1]
+        pairs = np.unique(rows.astype(np.int64) * size + columns)
+        rows, columns = np.divmod(pairs, size)
+        row_pointer = np.concatenate([[0], np.cumsum(np.bincount(rows, minlength=end - start))])
+        matrix = PETSc.Mat().createAIJ(
+            solid.getSizes(), bsize=solid.getBlockSize(), comm=self.comm,
+            csr=(row_pointer.astype(PETSc.IntType), columns.astype(PETSc.IntType),
+                 np.zeros(len(columns))))
+        matrix.setOption(PETSc.Mat.Option.NEW_NONZERO_ALLOCATION_ERR, True)
+        return matrix
+
+    # --- solves ---------------------------------------------------------------------------
+
+    def set_operator(self) -> None:
+        """Hand the last assembled tangent to the linear solver, with the uncoupled tangent to
+        build the preconditioner from if it is not symmetric."""
+        self.linear_solver.set_operator(
+            self.tangent, self.symmetric,
+            preconditioning=None if self.symmetric else self._uncoupled_tangent)
+
+    def bordered_solve(self, force_error: float, tolerance: float, hold_height: bool
+                       ) -> tuple[float, int]:
+        """Solve the bordered Newton system at the force error r [N] to the relative
+        ``tolerance``: du into x1; return (dh [m], Krylov iterations). With the height held,
+        K du = -R alone (dh = 0).
+
+        du = x1 + dh x2 with K x1 = -R and K x2 = -b, so x2's residual enters du's times dh:
+        x2 is solved again, tighter, until dh ||K x2 + b|| <= ``tolerance`` (||R|| + |r|)
+        (||b|| dh, the force of moving the flat, can be far above them near convergence)."""
+        c = self.force_row
+        self.set_operator()
+        self.residual.scale(-1.0)
+        krylov = self.linear_solver.solve(self.residual, self.x1, relative_tolerance=tolerance)
+        self.residual.scale(-1.0)  # R again, for the line search
+        if hold_height:
+            return 0.0, krylov
+        allowed = (tolerance * (self.residual.norm() + abs(force_error))
+                   / self.height_column.norm())  # bound on dh x x2's relative tolerance
+        height_tolerance = tolerance
+        while True:
+            krylov += self.solve_height_column(height_tolerance)
+            height_increment = -(force_error + c.dot(self.x1)) / self.height_slope()
+            if (abs(height_increment) * height_tolerance <= allowed
+                    or height_tolerance <= SMALLEST_TOLERANCE):
+                break
+            height_tolerance = max(SMALLEST_TOLERANCE, 0.5 * allowed / abs(height_increment))
+        self.x1.axpy(height_increment, self.x2)
+        return height_increment, krylov
+
+    def solve_height_column(self, tolerance: float) -> int:
+        """x2 = du/dh = -K^-1 b to the relative ``tolerance``, warm-started (x2 changes little
+        from one iterate to the next); return the Krylov iterations."""
+        b = self.height_column
+        b.scale(-1.0)
+        krylov = self.linear_solver.solve(b, self.x2, warm_start=True,
+                                          relative_tolerance=tolerance)
+        b.scale(-1.0)
+        return krylov
+
+    def height_slope(self) -> float:
+        """dr/dh along the solution: c.x2 + d with d = dr/dh = -sum c [N/m]."""
+        c = self.force_row
+        return c.dot(self.x2) - c.sum()
+
+    def destroy(self) -> None:
+        """Free the PETSc objects (matrices, vectors, the KSP); unusable afterwards."""
+        for item in (self._elastic_tangent, self._elastic_system, self._tangent_full,
+                     self._solid_tangent, self._residual_full, self.tangent,
+                     self._uncoupled_tangent, self.residual, self.height_column, self.force_row,
+                     self.x1, self.x2, self._near_nullspace):
+            if item is not None:
+                item.destroy()
+        self.linear_solver.destroy()
