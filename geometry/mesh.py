@@ -27,7 +27,7 @@ gmsh holds the mesh: the structured layers and the 2:1 levels are numbered here 
 (:func:`structured_block`), moved onto the height map (:func:`block_nodes`, the paper's
 moving-node method) and put into a gmsh model as discrete entities (:func:`add_block_to_gmsh`:
 the nodes and hexahedra, and a physical group per side), which is written to a ``.msh`` file on
-request (:func:`write_msh`) and read by dolfinx through ``dolfinx.io.gmshio``
+request (:func:`geometry.mesh_file.write_msh`) and read by dolfinx through ``dolfinx.io.gmshio``
 (``solver/block.py``). gmsh's own meshers cannot make this block: its structured meshes
 (transfinite volumes, extrusion in layers) are conforming, one lateral resolution per volume,
 and joining two resolutions conformingly takes transition cells (recombination leaves prisms
@@ -42,11 +42,9 @@ import math
 from contextlib import contextmanager
 from dataclasses import dataclass
 from enum import IntEnum
-from pathlib import Path
 
 import numpy as np
 from roughfriction.case import MeshOptions
-from roughfriction.errors import InputError
 
 # gmsh is imported where the model is built, so that this module imports without it.
 
@@ -427,34 +425,3 @@ def add_block_to_gmsh(gmsh, nodes: BlockNodes) -> None:
         model.setPhysicalName(2, model.addPhysicalGroup(2, [int(side)], int(side)),
                               side.name.lower())
     model.setPhysicalName(3, model.addPhysicalGroup(3, [BLOCK_VOLUME], BLOCK_VOLUME), "block")
-
-
-def write_msh(nodes: BlockNodes, path: str | Path) -> Path:
-    """Write the block as a gmsh mesh file (binary MSH 4.1, whose coordinates read back exactly
-    where text rounds the last digit; ``gmsh PATH`` opens it): written beside ``path`` and
-    renamed onto it, so a failed write leaves no partial file under that name.
-
-    Raises
-    ------
-    InputError
-        If ``path`` does not end in ``.msh`` or cannot be written.
-    """
-    path = Path(path)
-    if path.suffix != ".msh":
-        raise InputError(f"a gmsh mesh file name ends in .msh, got {path}")
-    partial = path.with_name(f".{path.stem}.partial.msh")  # gmsh picks the format by suffix
-    try:
-        partial.write_bytes(b"")
-    except OSError as error:
-        raise InputError(f"cannot write the mesh to {path}: {error.strerror}") from None
-    try:
-        with gmsh_model() as gmsh:
-            add_block_to_gmsh(gmsh, nodes)
-            gmsh.option.setNumber("Mesh.Binary", 1)
-            gmsh.write(str(partial))
-        if partial.stat().st_size == 0:
-            raise InputError(f"gmsh could not write the mesh to {path}")
-        partial.replace(path)
-    finally:
-        partial.unlink(missing_ok=True)
-    return path

@@ -6,10 +6,12 @@ Read in this order (the paper's procedure):
 * ``run``          build the block, preload, slide to inception, report
 * ``block``        the dolfinx mesh of the gmsh block (gmshio, fixed slab partition)
 * ``stepping``     load path: adaptive preload and tangential steps, sliding inception
-* ``equilibrium``  Newton on the reduced, force-controlled (bordered) system; Uzawa updates
+* ``equilibrium``  the iterate (u_red, h), converged steps, path predictor
+* ``newton``       a load step's Newton solves and Uzawa updates (options: ``LoadStep``)
+* ``reduced_system`` R, K on u = P u_red and the bordered (force-controlled) solve (PETSc)
 * ``solid``        trilinear hexahedra, SRI, weak forms; ``plasticity`` the J2 return map
-* ``contact``      augmented-Lagrangian contact and tau_c-capped friction at Gauss points of
-  the surface faces
+* ``contact``      surface quadrature, gathers across ranks, contact history, force sums, maps
+* ``contact_law``  pressure and tau_c-capped friction at points, with their tangents (NumPy)
 * ``periodic``     u = P u_red (periodic sides, fixed bottom, hanging nodes); ``linear`` MUMPS /
   CG + GAMG
 * ``results``      step records and summary; ``progress`` progress records; ``fields`` XDMF

@@ -26,8 +26,8 @@ from roughfriction.geometry.mesh import (
     corner_jacobians,
     gmsh_model,
     layer_layout,
-    write_msh,
 )
+from roughfriction.geometry.mesh_file import write_msh
 
 
 def build_block(heights: np.ndarray, spacing: float, options: MeshOptions, comm) -> Block:
@@ -75,7 +75,7 @@ def build_block(heights: np.ndarray, spacing: float, options: MeshOptions, comm)
 def write_block_msh(heights: np.ndarray, spacing: float, options: MeshOptions, path: str,
                     comm) -> None:
     """Write the block :func:`build_block` meshes as a gmsh ``.msh`` file (on rank 0; see
-    ``geometry.mesh.write_msh``), raising its :class:`InputError` on every rank."""
+    ``geometry.mesh_file.write_msh``), raising its :class:`InputError` on every rank."""
     error = None
     if comm.rank == 0:
         try:

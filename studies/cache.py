@@ -53,7 +53,9 @@ DEFAULT_RUNS = Path("results/runs")
 PHYSICS_MODULES = (
     "roughfriction.material", "roughfriction.case", "roughfriction.geometry.surface",
     "roughfriction.geometry.mesh", "roughfriction.solver.block", "roughfriction.solver.contact",
-    "roughfriction.solver.equilibrium", "roughfriction.solver.linear",
+    "roughfriction.solver.contact_law", "roughfriction.solver.equilibrium",
+    "roughfriction.solver.newton", "roughfriction.solver.reduced_system",
+    "roughfriction.solver.linear",
     "roughfriction.solver.periodic", "roughfriction.solver.plasticity",
     "roughfriction.solver.solid", "roughfriction.solver.stepping", "roughfriction.solver.run",
     "roughfriction.solver.results",

@@ -23,8 +23,8 @@ from roughfriction.geometry.mesh import (  # noqa: E402
     interpolation_masters,
     layer_layout,
     structured_block,
-    write_msh,
 )
+from roughfriction.geometry.mesh_file import write_msh
 from roughfriction.solver.run import check_memory  # noqa: E402
 
 pytestmark = pytest.mark.fem

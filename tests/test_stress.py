@@ -109,18 +109,17 @@ class ScriptedEquilibrium:
             tangential_force=lambda contact: 0.5 * contact.fn if contact.slide else 0.0,
             count=lambda flags: int(np.count_nonzero(flags)))
 
-    def solve(self, normal_force, slide, friction, hold_height=False, predictor=True,
-              marks_path=False, exact_tangent=False):
-        from roughfriction.solver.equilibrium import NewtonReport
+    def solve(self, step):
+        from roughfriction.solver.newton import NewtonReport
 
         self.calls += 1
-        if friction:
-            self.predictors.append(predictor)
-            self.marks_path.append(marks_path)
-            self.exact_tangent.append(exact_tangent)
-        contact = types.SimpleNamespace(fn=normal_force, slide=slide,
+        if step.friction:
+            self.predictors.append(step.predictor)
+            self.marks_path.append(step.marks_path)
+            self.exact_tangent.append(step.exact_tangent)
+        contact = types.SimpleNamespace(fn=step.normal_force, slide=step.flat_slide,
                                         in_contact=np.ones(4, bool),
-                                        slipping=np.full(4, slide > self.slip_from))
+                                        slipping=np.full(4, step.flat_slide > self.slip_from))
         failed = self.calls in self.failing
         return NewtonReport(not failed, 3, 0, 1e-3, contact,
                             f"scripted failure {self.calls}" if failed else "")
