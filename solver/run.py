@@ -55,8 +55,14 @@ class FemRun:
 
 
 def peak_memory_gb() -> float:
-    """Peak resident memory of this process so far [GB] (Linux ru_maxrss is in KiB)."""
-    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2**20
+    """Peak resident memory of this process so far [GB]: ``VmHWM`` of /proc/self/status (Linux;
+    ``ru_maxrss`` counts a parent's peak at fork too), else ``ru_maxrss`` [KiB]."""
+    try:
+        status = Path("/proc/self/status").read_text()
+    except OSError:
+        return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2**20
+    kib = next(line.split()[1] for line in status.splitlines() if line.startswith("VmHWM:"))
+    return int(kib) / 2**20
 
 
 def available_memory_gb(comm: MPI.Comm) -> float:

@@ -43,3 +43,16 @@ def test_more_blend_layers_than_needed_are_kept():
     assert with_blend_layers_needed(deeper, lines.append) is deeper
     assert with_blend_layers_needed(case, lines.append).mesh.blend_layers == 3
     assert len(lines) == 1
+
+
+def test_peak_memory_is_this_process_not_its_parent():
+    """A child started by a process that used 1.5 GB reports its own peak memory."""
+    import subprocess
+    import sys
+
+    ballast = np.ones(int(1.5 * 2**30 / 8))  # touched: resident in this (parent) process
+    code = "from roughfriction.solver.run import peak_memory_gb; print(peak_memory_gb())"
+    child = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                           check=True)
+    assert ballast[-1] == 1.0
+    assert float(child.stdout) < 1.0
