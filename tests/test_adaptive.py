@@ -310,7 +310,8 @@ def dolfinx_block(layout, heights, comm):
     from dolfinx import cpp
     from dolfinx.cpp.io import perm_gmsh
     from dolfinx.mesh import create_mesh
-    from roughfriction.geometry.mesh import Block, slab_partitioner
+    from roughfriction.geometry.mesh import Block
+    from roughfriction.solver.block import slab_partitioner
 
     grid, hexahedra = adaptive_block(layout.cells)
     if comm.rank == 0:
@@ -337,7 +338,8 @@ def uniaxial_strain_error():
     from dolfinx.fem import petsc as fem_petsc
     from mpi4py import MPI
     from petsc4py import PETSc
-    from roughfriction.geometry.mesh import Boundary, boundary_facet_tags
+    from roughfriction.geometry.mesh import Boundary
+    from roughfriction.solver.block import boundary_facet_tags
     from roughfriction.solver.periodic import PeriodicReduction
 
     n = 4
