@@ -565,7 +565,8 @@ def stress_markdown(rows: Sequence[dict], n: int, loads: Sequence[float],
     lines += [f"Stress runs on N = {n} grids ({', '.join(map(str, ranks)) or '?'} rank(s)). "
               "G1-G9 as the figures mesh them (an N x N window at their own spacing), "
               "ST400 test3 resampled to N x N. "
-              "Cells: mu_s; (k cuts): converged after k step cuts; (alone): failed on the "
+              "Cells: mu_s; (k cuts): converged after k step cuts (a cut on the normal path "
+              "a surface's loads share counts in each of them); (alone): failed on the "
               "normal path shared with the smaller loads, converged on its own; FAILED: failed "
               "loudly "
               f"(reason below); {UNRELIABLE_MARK}: unreliable, fewer than "
@@ -593,8 +594,8 @@ def provenance_line() -> str:
 
     load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
     return (f"roughfriction {__version__}, run {datetime.now(UTC):%Y-%m-%d %H:%M} UTC "
-            f"on {os.cpu_count()} cores (1-min load average {load:.1f} at the end); wall times "
-            "in stress.csv are not benchmarks.")
+            f"on {os.cpu_count()} cores (1-min load average {load:.1f} at the end); no timings "
+            "are claimed: the wall times in stress.csv depend on the machine's other work.")
 
 
 # --- command line ----------------------------------------------------------------------------

@@ -4,6 +4,7 @@ end-to-end matrix (N = 8, serial, a temporary run cache) with runs that must fai
 
 import csv
 import math
+import os
 import types
 
 import numpy as np
@@ -39,6 +40,7 @@ from roughfriction.studies.stress import (
     measured_surface,
     option_runs,
     outcome_counts,
+    provenance_line,
     run_stress,
     stress_markdown,
     stress_row,
@@ -480,6 +482,14 @@ def test_markdown_shows_materials_ranks_repeats_and_their_agreement():
     assert "- repeats on the same ranks: mu_s repeat 1: 0.4, repeat 2: 0.41; largest " \
            "relative difference 0.025 (tolerance 1e-12): **DO NOT AGREE**: mu_s differs" in text
     assert "(2 rank(s))" in text  # the rank runs do not count as this command's ranks
+
+
+def test_provenance_states_the_version_the_date_and_the_machine():
+    from roughfriction import __version__
+
+    line = provenance_line()
+    assert line.startswith(f"roughfriction {__version__}, run 20") and " UTC on " in line
+    assert f"{os.cpu_count()} cores" in line and "no timings are claimed" in line
 
 
 # --- end to end ------------------------------------------------------------------------------
