@@ -77,6 +77,10 @@ def add_bench_commands(bench) -> None:
     matrix.add_argument("--runs", metavar="DIR", help="run cache directory")
     matrix.add_argument("--plan", action="store_true",
                         help="print the runs (cached, to compute) and exit")
+    matrix.add_argument("--rank-run", action="store_true",
+                        help="only compute the rank-comparison run on this mpirun's ranks "
+                             "(1, 2 or 4) into its own run cache under --output, for a later "
+                             "stress run to read")
     matrix.set_defaults(run=cmd_bench_stress)
     profile = kinds.add_parser("profile", help="where one FEM run's time goes (run under "
                                "mpirun) -> " + str(BENCH_DIR / "profile_<case>.json"))
@@ -152,13 +156,22 @@ def cmd_bench_error(args) -> dict:
 
 
 def cmd_bench_stress(args) -> dict:
-    """The stress matrix (:mod:`roughfriction.studies.stress`); a silent failure is an error."""
+    """The stress matrix (:mod:`roughfriction.studies.stress`); a silent failure or runs that
+    disagree between rank counts or repeats are an error."""
     from roughfriction.studies import stress
     from roughfriction.studies.batch import batch_plan
 
+    if args.rank_run:
+        from mpi4py import MPI
+
+        path = stress.compute_rank_run(args.n, Path(args.output), MPI.COMM_WORLD)
+        return {"results": str(path) if path else None}
     runs = stress.default_runs(args.n)
     if args.plan:
-        lines = batch_plan([run.case for run in runs if run.case], args.runs)
+        lines = batch_plan([run.case for run in runs if run.case
+                            and run.kind not in stress.CHECK_KINDS], args.runs)
+        lines += [f"and {sum(run.kind == kind for run in runs)} {kind} runs, each in its own "
+                  "run cache" for kind in stress.CHECK_KINDS]
         lines += [f"not run: {run.surface} F*={run.load_star:g}: {run.error}"
                   for run in runs if run.case is None]
         return {"plan": lines}
@@ -167,9 +180,10 @@ def cmd_bench_stress(args) -> dict:
     comm = MPI.COMM_WORLD
     rows = stress.run_stress(runs, args.n, stress.MATRIX_LOADS, Path(args.output), comm,
                              args.runs)
-    silent = comm.bcast(None if rows is None else stress.outcome_counts(rows)[stress.SILENT],
-                        root=0)
-    if silent:
-        raise InputError(f"{silent} SILENT FAILURE(S): see the problems column of "
-                         f"{Path(args.output) / 'stress.csv'}")
+    found = comm.bcast(None if rows is None else (stress.outcome_counts(rows)[stress.SILENT],
+                                                  stress.disagreements(rows)), root=0)
+    silent, disagreements = found
+    if silent or disagreements:
+        raise InputError(f"{silent} SILENT FAILURE(S), {len(disagreements)} disagreement(s) "
+                         f"of rank counts or repeats: see {Path(args.output) / 'stress.md'}")
     return {"rows": len(rows or []), "csv": str(Path(args.output) / "stress.csv")}

@@ -4,11 +4,13 @@ end-to-end matrix (N = 8, serial, a temporary run cache) with runs that must fai
 
 import csv
 import math
+import os
 import types
 
 import numpy as np
 import pytest
 from roughfriction.case import FemCase, Loading, SolverOptions
+from roughfriction.errors import InputError
 from roughfriction.geometry.surface import Surface
 from roughfriction.solver.progress import StepCut
 from roughfriction.solver.results import FemResult, StepRecord
@@ -18,22 +20,32 @@ from roughfriction.studies.stress import (
     DIRECT,
     FAILED,
     OUTCOMES,
+    RANK_TOLERANCE,
     SILENT,
     UNRELIABLE_MARK,
     StressRun,
     add_changes,
+    agreement,
     cell_text,
+    check_directory,
+    check_runs,
     classify,
+    compute_rank_run,
+    compute_runs,
     default_runs,
+    disagreements,
     load_runs,
+    material_runs,
     matrix_table,
     measured_surface,
     option_runs,
     outcome_counts,
+    provenance_line,
     run_stress,
     stress_markdown,
     stress_row,
     surface_data_directory,
+    surface_psi,
 )
 
 SPACING = 1e-6
@@ -274,14 +286,72 @@ def test_option_runs_multiply_the_default_and_keep_the_rest():
 def test_default_runs_are_the_declared_matrix_and_variants():
     runs = default_runs(8)
     kinds = [r.kind for r in runs]
-    assert kinds.count("matrix") == 36 and kinds.count("measured") == 4
+    assert kinds.count("matrix") == 45 and kinds.count("measured") == 5
     assert kinds.count("penalty") == kinds.count("step") == 8 and kinds.count("default") == 2
+    assert kinds.count("residual") == kinds.count("increment") == kinds.count("penetration") == 4
+    assert kinds.count("material") == 8
+    assert kinds.count("ranks") == 3 and kinds.count("repeat") == 5
     default = [r.case for r in runs if r.kind == "default"]
-    option = [r.case for r in runs if r.kind == "penalty"]
+    option = [r.case for r in runs if r.kind in ("penalty", "residual", "material", "repeat")]
     assert all(case.surface is option[0].surface for case in default + option)
     assert {r.case.surface.n for r in runs if r.case is not None} == {8}
+    loads = {r.load_star for r in runs if r.kind == "matrix"}
+    assert min(loads) == 0.01 and max(loads) == 2.5
     g1 = [r for r in runs if r.surface == "G1" and r.load_star == 1.86]
     assert len(g1) == 1  # near-complete contact is in the matrix
+    tolerances = [r.case.solver for r in runs if r.kind == "residual"]
+    assert sorted(t.residual_tolerance for t in tolerances) == pytest.approx(
+        [1e-8, 1e-8, 1e-4, 1e-4])
+    assert {t.increment_tolerance for t in tolerances} == {SolverOptions().increment_tolerance}
+
+
+def test_the_matrix_spans_psi_1_to_26_on_the_32_grid():
+    """G1-G9 are meshed as the figures mesh them (windows at their own spacing), not re-gridded
+    to 32 points (psi 0.3-5.5)."""
+    psi = [surface_psi(r.case) for r in default_runs(32) if r.kind == "matrix"]
+    assert min(psi) < 1.5 and max(psi) > 25
+
+
+def test_material_runs_set_each_extreme_with_its_dependent_constants():
+    runs = material_runs(flat_case(), (0.01, 0.155))
+    assert len(runs) == 8 and {r.kind for r in runs} == {"material"}
+    material = {(r.variant, r.load_star): r.case.material for r in runs}
+    assert material["nu = 0.499", 0.155].nu == 0.499
+    assert material["no hardening (E_t = 1e-6 E)", 0.01].Et == pytest.approx(1e-6 * 200e9)
+    stiff = material["very stiff (E = 2000 GPa)", 0.01]
+    soft = material["very soft (E = 20 GPa)", 0.01]
+    assert (stiff.E, soft.E) == (2e12, 2e10)
+    # E_t follows E (2 %), S_y and tau_c stay the paper's
+    assert (stiff.Et, soft.Et) == (pytest.approx(4e10), pytest.approx(4e8))
+    assert stiff.Sy == soft.Sy == 1e9 and stiff.tau_c == pytest.approx(1e9 / math.sqrt(3))
+    assert runs[1].case.loading == Loading(0.155) and runs[1].case.surface.name == "flat"
+
+
+def test_check_runs_are_the_same_case_each_in_its_own_run_cache(tmp_path):
+    case = flat_case()
+    runs = check_runs(case, (1, 2, 4), 5)
+    assert [(r.kind, r.ranks, r.variant) for r in runs[:3]] == [
+        ("ranks", 1, "1 rank"), ("ranks", 2, "2 ranks"), ("ranks", 4, "4 ranks")]
+    assert [r.variant for r in runs[3:]] == [f"repeat {k}" for k in range(1, 6)]
+    assert all(r.case is case for r in runs)
+    directories = {check_directory(tmp_path, r) for r in runs}
+    assert len(directories) == 8
+    assert check_directory(tmp_path, runs[2]) == tmp_path / "stress_runs" / "ranks4"
+    assert check_directory(tmp_path, runs[-1]) == tmp_path / "stress_runs" / "repeat5"
+
+
+def test_a_rank_run_not_computed_fails_loudly_with_the_command_that_computes_it(tmp_path):
+    run = check_runs(flat_case(), (4,), 0)[0]
+    result = compute_runs([run], 32, tmp_path, comm=None)[0]
+    assert result.path is None and "mpirun -n 4 --oversubscribe" in result.error
+    assert "--rank-run" in result.error
+    row = stress_row(run, 32, None, result.error)
+    assert row["outcome"] == FAILED and row["expected_ranks"] == 4
+
+
+def test_a_rank_run_is_refused_on_a_rank_count_not_compared(tmp_path):
+    with pytest.raises(InputError, match="1, 2, 4 ranks, not 3"):
+        compute_rank_run(8, tmp_path, types.SimpleNamespace(size=3))
 
 
 def test_measured_surface_is_resampled_or_its_absence_explained(tmp_path, monkeypatch):
@@ -340,11 +410,13 @@ def test_cells_show_mu_s_cuts_failures_and_unreliability():
 
 
 def test_matrix_table_has_a_row_per_surface_and_a_column_per_load():
-    lines = matrix_table(synthetic_table(), (0.01, 0.155, 0.62))
-    assert lines[0] == "| surface | F* = 0.01 | F* = 0.155 | F* = 0.62 |"
-    assert lines[1] == "|---|---|---|---|"
-    assert lines[2] == f"| G1 | 0.900 {UNRELIABLE_MARK} | 0.500 (2 cuts) | – |"
-    assert lines[3] == "| G5 | FAILED | 0.800 | – |"
+    rows = synthetic_table()
+    rows[0]["psi"] = rows[1]["psi"] = 1.3202
+    lines = matrix_table(rows, (0.01, 0.155, 0.62))
+    assert lines[0] == "| surface | psi | F* = 0.01 | F* = 0.155 | F* = 0.62 |"
+    assert lines[1] == "|---|---|---|---|---|"
+    assert lines[2] == f"| G1 | 1.32 | 0.900 {UNRELIABLE_MARK} | 0.500 (2 cuts) | – |"
+    assert lines[3] == "| G5 | – | FAILED | 0.800 | – |"
     assert len(lines) == 4
 
 
@@ -363,6 +435,62 @@ def test_markdown_counts_outcomes_lists_failures_and_the_reliable_region():
     assert "2 rank(s)" in text
 
 
+def check_row(kind, variant, mu_s, ranks=2, expected=None):
+    return {**row("G5", 0.155, mu_s=mu_s, kind=kind), "variant": variant, "ranks": ranks,
+            "expected_ranks": expected}
+
+
+def test_repeats_agree_only_when_identical_to_round_off():
+    same = [check_row("repeat", f"repeat {k}", 0.2146123456789) for k in range(1, 6)]
+    found = agreement(same, "repeat")
+    assert found.agrees and found.spread == 0.0 and len(found.values) == 5
+    apart = same[:4] + [check_row("repeat", "repeat 5", 0.2146123456789 * (1 + 1e-9))]
+    found = agreement(apart, "repeat")
+    assert not found.agrees and "differs by 1e-09" in found.problems[0]
+    assert disagreements(apart) == [f"repeat: {found.problems[0]}"]
+    assert agreement(same, "ranks") is None and disagreements(same) == []
+
+
+def test_rank_counts_agree_within_their_tolerance_on_the_ranks_asked():
+    ranks = [check_row("ranks", f"{k} ranks", 0.2146 * (1 + 0.5 * RANK_TOLERANCE * (k > 1)),
+                       ranks=k, expected=k) for k in (1, 2, 4)]
+    assert agreement(ranks, "ranks").agrees
+    far = ranks[:2] + [check_row("ranks", "4 ranks", 0.2146 * 1.001, ranks=4, expected=4)]
+    assert "differs by 0.001" in agreement(far, "ranks").problems[0]
+    wrong = ranks[:2] + [check_row("ranks", "4 ranks", 0.2146, ranks=2, expected=4)]
+    assert agreement(wrong, "ranks").problems == ("4 ranks: ran on 2 rank(s)",)
+    missing = ranks[:2] + [check_row("ranks", "4 ranks", None, ranks=None, expected=4)]
+    found = agreement(missing, "ranks")
+    assert found.spread is None and found.problems == ("no mu_s to compare: 4 ranks",)
+
+
+def test_markdown_shows_materials_ranks_repeats_and_their_agreement():
+    rows = synthetic_table()
+    rows.append({**row("G5", 0.155, CUT, mu_s=0.5, kind="material", cut_steps=1),
+                 "variant": "nu = 0.499"})
+    rows += [check_row("ranks", f"{k} rank" + "s" * (k > 1), 0.4, ranks=k, expected=k)
+             for k in (1, 2, 4)]
+    rows += [check_row("repeat", "repeat 1", 0.4), check_row("repeat", "repeat 2", 0.41)]
+    add_changes(rows)
+    text = stress_markdown(rows, 32, (0.01, 0.155), "roughfriction 9.9, run today")
+    assert text.startswith("roughfriction 9.9, run today\n\n")
+    assert "| material | nu = 0.499 | 0.500 (+25.0 %) (1 cut) |" in text
+    assert "| ranks | 4 ranks | 4 | 0.4 | converged directly |" in text
+    assert "- rank counts: mu_s 1 rank: 0.4, 2 ranks: 0.4, 4 ranks: 0.4; largest relative " \
+           "difference 0 (tolerance 1e-06): agree." in text
+    assert "- repeats on the same ranks: mu_s repeat 1: 0.4, repeat 2: 0.41; largest " \
+           "relative difference 0.025 (tolerance 1e-12): **DO NOT AGREE**: mu_s differs" in text
+    assert "(2 rank(s))" in text  # the rank runs do not count as this command's ranks
+
+
+def test_provenance_states_the_version_the_date_and_the_machine():
+    from roughfriction import __version__
+
+    line = provenance_line()
+    assert line.startswith(f"roughfriction {__version__}, run 20") and " UTC on " in line
+    assert f"{os.cpu_count()} cores" in line and "no timings are claimed" in line
+
+
 # --- end to end ------------------------------------------------------------------------------
 
 def rough_surface(name, seed=7):
@@ -373,8 +501,8 @@ def rough_surface(name, seed=7):
 def test_tiny_stress_matrix_end_to_end(tmp_path):
     """A rough 8 x 8 surface at two loads (one group), penalty x10, a run stopped by its
     step limit, a spiky surface (meshed with the blend layers its valley needs), a measured
-    surface that is missing: the runs converge, the rest fail loudly with their reasons,
-    nothing fails silently."""
+    surface that is missing, two repeats and a 4-rank run not computed: the runs converge, the
+    rest fail loudly with their reasons, nothing fails silently."""
     from dataclasses import replace
 
     from mpi4py import MPI
@@ -390,7 +518,8 @@ def test_tiny_stress_matrix_end_to_end(tmp_path):
             + [StressRun("matrix", "limited", 0.155, case=limited),
                StressRun("matrix", "spiky", 0.155,
                          case=FemCase(Surface(spiky, SPACING, "spiky"), Loading(0.155))),
-               StressRun("measured", "missing", 0.155, error="measured surface not available")])
+               StressRun("measured", "missing", 0.155, error="measured surface not available")]
+            + check_runs(base, (4,), 2))
     rows = run_stress(runs, 8, (0.155, 0.62), tmp_path / "out", MPI.COMM_SELF,
                       tmp_path / "runs", progress=lambda record: None)
     outcome = {(r["surface"], r["load_star"], r["factor"]): r for r in rows}
@@ -407,9 +536,20 @@ def test_tiny_stress_matrix_end_to_end(tmp_path):
     assert outcome["spiky", 0.155, 1.0]["outcome"] in (DIRECT, CUT)
     assert outcome["missing", 0.155, 1.0]["message"] == "measured surface not available"
     assert outcome_counts(rows)[SILENT] == 0
+    # the repeats are computed, each in its own cache, to the same mu_s as the default run;
+    # the 4-rank run was not computed by its own mpirun: a loud failure and a disagreement
+    repeats = [r for r in rows if r["kind"] == "repeat"]
+    assert repeats[0]["mu_s"] == repeats[1]["mu_s"] == pytest.approx(
+        outcome["R", 0.155, 1.0]["mu_s"], rel=1e-6)
+    for k in (1, 2):
+        assert len(list((tmp_path / "out" / "stress_runs" / f"repeat{k}").glob("*.h5"))) == 1
+    assert agreement(rows, "repeat").spread == 0.0
+    ranks = [r for r in rows if r["kind"] == "ranks"]
+    assert ranks[0]["outcome"] == FAILED and "--rank-run" in ranks[0]["message"]
+    assert disagreements(rows) == ["ranks: no mu_s to compare: 4 ranks"]
 
     written = list(csv.DictReader((tmp_path / "out" / "stress.csv").read_text().splitlines()))
-    assert len(written) == len(runs) == 7
+    assert len(written) == len(runs) == 10
     assert written[4]["message"] == limit["message"]  # commas survive the CSV
     markdown = (tmp_path / "out" / "stress.md").read_text()
     assert "| R | " in markdown and "0 SILENT FAILURE" in markdown
