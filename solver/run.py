@@ -15,8 +15,10 @@ import numpy as np
 from mpi4py import MPI
 from roughfriction.case import FemCase, Loading, MeshOptions
 from roughfriction.errors import InputError
+from roughfriction.geometry.adaptive import AdaptiveLayout, layout_dofs
+from roughfriction.geometry.adaptive import estimated_memory_gb as adaptive_memory_gb
 from roughfriction.geometry.mesh import Block, blend_layers_needed, estimated_memory_gb, mesh_size
-from roughfriction.solver.block import build_block
+from roughfriction.solver.block import block_layout, build_block
 from roughfriction.solver.contact import ContactResponse, RigidFlat
 from roughfriction.solver.contact_law import ContactLaw
 from roughfriction.solver.equilibrium import Equilibrium
@@ -74,15 +76,22 @@ def available_memory_gb(comm: MPI.Comm) -> float:
     return comm.allreduce(available, op=MPI.SUM)
 
 
-def check_memory(n: int, options: MeshOptions, comm: MPI.Comm) -> None:
+def check_memory(n: int, options: MeshOptions, comm: MPI.Comm,
+                 layout: AdaptiveLayout | None = None) -> None:
     """Refuse, before allocating anything, an n x n surface whose FEM block would not fit in
-    the memory available to the run (:func:`geometry.mesh.estimated_memory_gb`)."""
-    needed = estimated_memory_gb(n, options, comm.size)
+    the memory available to the run (:func:`geometry.mesh.estimated_memory_gb`, or
+    :func:`geometry.adaptive.estimated_memory_gb` for the adaptive ``layout``)."""
+    if layout is None:
+        dofs, what = mesh_size(n, options)[1], f"N = {n}"
+        needed = estimated_memory_gb(n, options, comm.size)
+    else:
+        dofs, what = layout_dofs(layout), f"N = {n} refined to level {layout.level}"
+        needed = adaptive_memory_gb(layout, comm.size, dofs)
     available = available_memory_gb(comm)
     if needed > available:
-        raise InputError(f"N = {n}: the FEM run needs about {needed:.3g} GB "
-                         f"({mesh_size(n, options)[1]:.3g} dofs), {available:.3g} GB are "
-                         "available; use a smaller --n or more nodes")
+        raise InputError(f"{what}: the FEM run needs about {needed:.3g} GB ({dofs:.3g} dofs), "
+                         f"{available:.3g} GB are available; use a smaller --n, less "
+                         "refinement or more nodes")
 
 
 def stderr_progress(comm):
@@ -118,6 +127,9 @@ def surface_contact(solid: Solid, block: Block, case: FemCase) -> RigidFlat:
     n = block.n
     on_surface = np.flatnonzero((grid[:, 2] == block.num_layers) & (grid[:, 0] < n)
                                 & (grid[:, 1] < n))
+    if block.mesh.comm.allreduce(len(on_surface)) != n * n:
+        raise InputError("contact on a surface of non-uniform cells is not implemented: the "
+                         "refinement zone must cover the whole surface")
     heights = V.tabulate_dof_coordinates()[on_surface, 2]
     material, spacing = case.material, block.spacing
     penalty = case.solver.penalty * material.E_star / spacing
@@ -204,15 +216,17 @@ def run_loads(case: FemCase, loads: Sequence[float], comm: MPI.Comm = MPI.COMM_W
     started = time.perf_counter()
     case = with_blend_layers_needed(case, progress)
     surface = case.surface
-    check_memory(surface.n, case.mesh, comm)
+    layout = block_layout(surface.n, surface.spacing, case.mesh)
+    check_memory(surface.n, case.mesh, comm, layout)
     block = build_block(surface.heights, surface.spacing, case.mesh, comm)
     solid = Solid(block.mesh, case.material, case.solver.elastic, case.solver.integration)
-    reduction = PeriodicReduction(solid.V, block)
+    reduction = PeriodicReduction(solid.V, block, layout and layout.cells)
     flat = surface_contact(solid, block, case)
     equilibrium = Equilibrium(solid, reduction, flat, case.solver, block.spacing)
     sizes = {
         "cells": block.mesh.topology.index_map(3).size_global,
         "grid_size": block.n,
+        "refinement_level": layout.level if layout else 0,
         "layers": block.num_layers,
         "blend_layers": case.mesh.blend_layers,
         "depth_m": block.depth,

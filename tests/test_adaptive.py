@@ -303,31 +303,6 @@ def test_a_small_zone_costs_a_fraction_of_the_uniform_dofs():
     assert mesh_size(n, MeshOptions())[1] < dofs["adaptive"] < 0.6 * dofs["uniform"]
 
 
-def dolfinx_block(layout, heights, comm):
-    """The adaptive block as a dolfinx mesh distributed over comm in x-slabs (test helper for
-    the reduction; building it is not this module's job): Block."""
-    import ufl
-    from dolfinx import cpp
-    from dolfinx.cpp.io import perm_gmsh
-    from dolfinx.mesh import create_mesh
-    from roughfriction.geometry.mesh import Block, slab_partitioner
-
-    grid, hexahedra = adaptive_block(layout.cells)
-    if comm.rank == 0:
-        corner = grid[hexahedra[:, 0]]
-        cells = hexahedra[np.lexsort((corner[:, 2], corner[:, 1], corner[:, 0]))]
-        cells = cells[:, perm_gmsh(cpp.mesh.CellType.hexahedron, 8)]
-        coordinates = node_coordinates(layout, grid, heights)
-    else:
-        coordinates, cells = np.empty((0, 3)), np.empty((0, 8), dtype=np.int64)
-    domain = ufl.Mesh(ufl.VectorElement("Lagrange", ufl.hexahedron, 1))
-    mesh = create_mesh(comm, cells, coordinates, domain,
-                       partitioner=cpp.mesh.create_cell_partitioner(slab_partitioner))
-    grid_index = grid[mesh.geometry.input_global_indices]
-    return Block(mesh, grid_index, layout.layer_z, layout.cells.layer_stride, layout.grid_size,
-                 layout.fine_spacing)
-
-
 def uniaxial_strain_error():
     """Periodic sides, fixed bottom, pressure p on top of a flat adaptive block: u_z = -p (z + H)
     / M, u_x = u_y = 0 (M = lambda + 2 mu), which trilinear hexahedra and the hanging-node ties
@@ -337,13 +312,16 @@ def uniaxial_strain_error():
     from dolfinx.fem import petsc as fem_petsc
     from mpi4py import MPI
     from petsc4py import PETSc
-    from roughfriction.geometry.mesh import Boundary, boundary_facet_tags
+    from roughfriction.case import ZoneRefinement
+    from roughfriction.geometry.mesh import Boundary
+    from roughfriction.solver.block import boundary_facet_tags, build_block
     from roughfriction.solver.periodic import PeriodicReduction
 
     n = 4
-    layout = adaptive_layout(n, SPACING, 2, patches(n, seed=3, fraction=0.15),
-                             MeshOptions(fine_layers=2))
-    block = dolfinx_block(layout, np.zeros((n, n)), MPI.COMM_WORLD)
+    zone = patches(n, seed=3, fraction=0.15)
+    options = MeshOptions(fine_layers=2, refinement=ZoneRefinement(2, zone))
+    layout = adaptive_layout(n, SPACING, 2, zone, options)
+    block = build_block(np.zeros((n, n)), SPACING, options, MPI.COMM_WORLD)
     V = fem.VectorFunctionSpace(block.mesh, ("Lagrange", 1))
     reduction = PeriodicReduction(V, block, layout.cells)
     assert 3 * reduction.num_reduced_global == reduced_dofs(adaptive_block(layout.cells)[0],
