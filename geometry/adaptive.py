@@ -117,6 +117,17 @@ def dilate(mask: np.ndarray, margin: int) -> np.ndarray:
     return result
 
 
+def cells_at_nodes(nodes: np.ndarray, margin: int = 0) -> np.ndarray:
+    """The cells touching the marked nodes of a periodic grid (node (i, j) is a corner of cells
+    (i - 1 .. i, j - 1 .. j)), dilated by ``margin`` cells (:func:`dilate`): a zone mask on the
+    same grid, shape of ``nodes``."""
+    nodes = np.asarray(nodes, dtype=bool)
+    cells = nodes.copy()
+    for shift in ((1, 0), (0, 1), (1, 1)):
+        cells |= np.roll(nodes, (-shift[0], -shift[1]), axis=(0, 1))
+    return dilate(cells, margin)
+
+
 def quadtree_closure(demand: np.ndarray, level: int) -> np.ndarray:
     """The coarsest quadtree over 2^level-wide roots whose level is at least ``demand`` in every
     finest cell: a root or child square is split when a cell in it asks for a finer level.

@@ -9,6 +9,7 @@ from roughfriction.geometry.adaptive import (
     adaptive_block,
     adaptive_layout,
     balanced_levels,
+    cells_at_nodes,
     dilate,
     hanging_masters,
     node_coordinates,
@@ -366,3 +367,12 @@ def test_a_flat_adaptive_block_under_uniform_pressure_is_in_uniaxial_strain():
 def test_the_adaptive_ties_hold_across_ranks():
     """The same on 2 ranks: copies of interface nodes and masters on the other rank."""
     assert uniaxial_strain_error() < 1e-9
+
+
+def test_the_cells_at_a_contact_node_are_its_four_cells_dilated_periodically():
+    nodes = np.zeros((6, 6), bool)
+    nodes[0, 3] = True
+    cells = cells_at_nodes(nodes)
+    assert set(zip(*np.nonzero(cells), strict=True)) == {(5, 2), (5, 3), (0, 2), (0, 3)}
+    wider = cells_at_nodes(nodes, margin=1)
+    assert wider.sum() == 16 and wider[4, 1] and wider[1, 4] and not wider[2, 2]

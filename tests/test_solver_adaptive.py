@@ -6,13 +6,14 @@ import numpy as np
 import pytest
 from roughfriction.case import FemCase, Loading, MeshOptions, ZoneRefinement
 from roughfriction.errors import InputError
+from roughfriction.geometry.adaptive import cells_at_nodes
 from roughfriction.geometry.surface import Surface
 from roughfriction.studies.refinement import refined_case
 
 pytest.importorskip("dolfinx")
 from mpi4py import MPI  # noqa: E402
 from roughfriction.solver.block import build_block, mesh_nodes  # noqa: E402
-from roughfriction.solver.run import run  # noqa: E402
+from roughfriction.solver.run import FemRun, next_level_case, run  # noqa: E402
 
 SPACING = 1e-6  # [m]
 LEVEL = 1
@@ -63,15 +64,6 @@ def test_a_bad_zone_is_refused_on_every_rank_before_meshing():
         build_block(case.surface.heights, SPACING, bad, MPI.COMM_SELF)
 
 
-def test_a_partial_zone_is_refused_by_the_contact_until_it_handles_coarse_faces():
-    case = gentle_case(normal_only=True)
-    zone = np.zeros((4, 4), bool)
-    zone[1, 2] = True
-    partial = replace(case, mesh=replace(ADAPTIVE_MESH, refinement=ZoneRefinement(1, zone)))
-    with pytest.raises(InputError, match="non-uniform"):
-        run(partial, MPI.COMM_SELF, progress=lambda record: None)
-
-
 @pytest.mark.fem
 def test_the_all_zone_run_reproduces_the_uniformly_refined_run():
     case = gentle_case()
@@ -95,3 +87,46 @@ def test_the_all_zone_run_reproduces_the_uniformly_refined_run_across_ranks():
     assert adaptive.converged and structured.converged
     assert adaptive.records[-1].area_ratio == pytest.approx(structured.records[-1].area_ratio,
                                                             rel=1e-10, abs=0)
+
+
+def partial_zone_case() -> FemCase:
+    """The gentle 8 x 8 case, refined once around its 1x contact (one cell of margin)."""
+    case = replace(gentle_case(n=8, normal_only=True), mesh=ADAPTIVE_MESH)
+    contact = np.zeros((8, 8), bool)
+    contact[[2, 5], [3, 6]] = True
+    return replace(case, mesh=replace(case.mesh, refinement=ZoneRefinement(
+        1, cells_at_nodes(contact, 1))))
+
+
+def test_the_next_level_refines_the_cells_around_the_last_level_s_contact():
+    case = partial_zone_case()
+    maps = {"contact_normal": np.zeros((16, 16), bool), "contact_sliding": np.zeros((16, 16), bool)}
+    maps["contact_normal"][4, 6] = True
+    maps["contact_sliding"][5, 6] = True
+    finer = next_level_case(case, FemRun(None, maps, None, None), margin=0)
+    assert finer.mesh.refinement.level == 2
+    zone = finer.mesh.refinement.zone
+    assert zone.shape == (16, 16) and zone.sum() == 6 and zone[3:6, 5:7].all()
+    assert finer.surface is case.surface and finer.mesh.fine_layers == case.mesh.fine_layers
+
+
+@pytest.mark.fem
+def test_a_partial_zone_run_converges_with_fewer_dofs_than_the_uniform_one():
+    case = partial_zone_case()
+    adaptive = run(case, MPI.COMM_SELF, progress=lambda record: None)
+    structured = run(uniform(case), MPI.COMM_SELF, progress=lambda record: None)
+    assert adaptive.result.converged and structured.result.converged
+    assert adaptive.result.sizes["reduced_dofs"] < 0.8 * structured.result.sizes["reduced_dofs"]
+    assert adaptive.maps["contact_normal"].shape == (16, 16)
+    assert adaptive.maps["contact_normal"].any()
+
+
+@pytest.mark.mpi
+@pytest.mark.fem
+def test_a_partial_zone_run_is_the_same_on_two_ranks():
+    """Gathers of the free surface nodes, hanging corners and their masters across ranks."""
+    case = partial_zone_case()
+    serial = run(case, MPI.COMM_SELF, progress=lambda record: None).result.records[-1]
+    parallel = run(case, MPI.COMM_WORLD, progress=lambda record: None).result.records[-1]
+    assert parallel.area_ratio == pytest.approx(serial.area_ratio, rel=1e-10, abs=0)
+    assert parallel.flat_height == pytest.approx(serial.flat_height, rel=1e-8)
