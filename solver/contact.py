@@ -105,8 +105,8 @@ class SurfaceFaces:
         corner itself, or for a hanging corner the corners of the coarse face it lies on.
     weights : numpy.ndarray
         Their weights, shape (F, 4, 4) (each corner's sum to 1; 0 in unused slots).
-    grid_size : int
-        N [-].
+    cell_face : numpy.ndarray
+        The face covering each finest cell (i, j), shape (N, N).
     uniform : bool
         All faces 1 spacing wide (no hanging corners).
     """
@@ -115,17 +115,12 @@ class SurfaceFaces:
     width: np.ndarray
     masters: np.ndarray
     weights: np.ndarray
-    grid_size: int
+    cell_face: np.ndarray
     uniform: bool
 
     def on_grid(self, face_values: np.ndarray) -> np.ndarray:
         """Per-face values as an N x N map of the finest cells, each cell its face's value."""
-        if self.uniform:
-            return np.asarray(face_values).reshape(self.grid_size, self.grid_size)
-        grid = np.empty((self.grid_size, self.grid_size), dtype=np.asarray(face_values).dtype)
-        for (i0, j0), width, value in zip(self.first, self.width, face_values, strict=True):
-            grid[i0:i0 + width, j0:j0 + width] = value
-        return grid
+        return np.asarray(face_values)[self.cell_face]
 
 
 def surface_faces(n: int, cells: CellSizes | None = None) -> SurfaceFaces:
@@ -142,8 +137,11 @@ def surface_faces(n: int, cells: CellSizes | None = None) -> SurfaceFaces:
                             np.full(corner_i.size, cells.num_layers)])
     masters, weights = hanging_masters(grid, cells)
     nodes = (masters[..., 0] % n) * n + masters[..., 1] % n
+    a, b = np.meshgrid(np.arange(n), np.arange(n), indexing="ij")
+    size = cells.size(top, a, b)
+    cell_face = np.searchsorted(i0 * n + j0, (a // size * size) * n + b // size * size)
     return SurfaceFaces(np.column_stack([i0, j0]), width, nodes.reshape(-1, 4, 4),
-                        weights.reshape(-1, 4, 4), n, bool(np.all(width == 1)))
+                        weights.reshape(-1, 4, 4), cell_face, bool(np.all(width == 1)))
 
 
 def neighbour_stencil(n: int) -> np.ndarray:

@@ -370,6 +370,9 @@ def test_faces_of_varying_width_tile_the_surface_and_carry_a_uniform_pressure():
     maps = flat.node_maps(response)
     assert maps["contact"].sum() == free.sum() < n * n
     np.testing.assert_allclose(maps["contact_fraction"], 1.0)
+    cell_face = faces.on_grid(np.arange(len(faces.width)))  # each finest cell in its face
+    for face, ((i0, j0), width) in enumerate(zip(faces.first, faces.width, strict=True)):
+        assert np.all(cell_face[i0:i0 + width, j0:j0 + width] == face)
 
 
 def test_the_tangent_of_faces_of_varying_width_matches_central_differences():
