@@ -5,6 +5,7 @@ Plain data and checks only (no NumPy, no FEM): every layer of the package can im
 
 from __future__ import annotations
 
+import hashlib
 import math
 from dataclasses import asdict, dataclass, field
 from typing import TYPE_CHECKING
@@ -52,6 +53,38 @@ def check_surface_slope(surface: Surface) -> None:
                          f"{MAX_RMS_SLOPE:g}: heights and spacing must both be in metres")
 
 
+@dataclass(frozen=True, eq=False)
+class ZoneRefinement:
+    """The contact-adaptive mesh of ``geometry.adaptive``: the surface zone refined 2x per level.
+
+    Parameters
+    ----------
+    level : int
+        L: the zone's surface cells are h / 2^L wide (h the surface's grid spacing) [-], >= 0.
+    zone : numpy.ndarray
+        Cells to refine, bool, on the grid of a level m <= L: shape (n 2^m, n 2^m) for an
+        n x n surface (m = 0: its own cells; m = L - 1: the previous level's contact, say).
+        The rest of the surface is as coarse as the 2:1 balance allows.
+    """
+
+    level: int
+    zone: object
+
+    def __post_init__(self):
+        if isinstance(self.level, bool) or int(self.level) != self.level or self.level < 0:
+            raise InputError(f"refinement level must be an integer >= 0, got {self.level!r}")
+        shape = getattr(self.zone, "shape", ())
+        if len(shape) != 2 or shape[0] != shape[1]:
+            raise InputError(f"refinement zone must be a square cell mask, got shape {shape}")
+
+    def inputs(self) -> dict:
+        """The refinement as plain values: level, zone size and cells, SHA-256 of the mask."""
+        mask = self.zone.astype(bool)
+        return {"level": int(self.level), "zone_size": int(mask.shape[0]),
+                "zone_cells": int(mask.sum()),
+                "zone_sha256": hashlib.sha256(mask.tobytes()).hexdigest()}
+
+
 @dataclass(frozen=True)
 class MeshOptions:
     """How the block under the surface is layered.
@@ -73,6 +106,10 @@ class MeshOptions:
         Minimum block depth below the mean surface plane, in periods (N h) [-]. A surface
         wavelength lambda decays like exp(-2 pi z / lambda): at one period the longest one is down
         to exp(-2 pi) ~ 0.2 %.
+    refinement : ZoneRefinement, optional
+        Refine the surface zone only (``geometry.adaptive``); the layer counts above are then
+        in layers h thick of the surface's own grid, and the finest grid's layers follow
+        ``geometry.adaptive.adaptive_layers``. None: the structured block of the surface's grid.
     """
 
     blend_layers: int = 2
@@ -80,6 +117,7 @@ class MeshOptions:
     coarsen: bool = True
     growth: float = 1.4
     depth: float = 1.0
+    refinement: ZoneRefinement | None = None
 
     def __post_init__(self):
         for name in ("blend_layers", "fine_layers"):
@@ -94,6 +132,17 @@ class MeshOptions:
             raise InputError(f"layer growth ratio must lie in [1, 3], got {self.growth}")
         if not (math.isfinite(self.depth) and self.depth > 0):
             raise InputError(f"block depth must be > 0 periods, got {self.depth}")
+        if self.refinement is not None and not isinstance(self.refinement, ZoneRefinement):
+            raise InputError(f"mesh refinement must be a ZoneRefinement, got "
+                             f"{type(self.refinement).__name__}")
+
+    def inputs(self) -> dict:
+        """The options as plain values (the refinement's zone by its digest)."""
+        values = {name: getattr(self, name) for name in
+                  ("blend_layers", "fine_layers", "coarsen", "growth", "depth")}
+        if self.refinement is not None:
+            values["refinement"] = self.refinement.inputs()
+        return values
 
 
 @dataclass(frozen=True)
@@ -269,6 +318,6 @@ class FemCase:
                         "spacing_m": self.surface.spacing, "sha256": self.surface.digest()},
             "loading": asdict(self.loading),
             "material": asdict(self.material),
-            "mesh": asdict(self.mesh),
+            "mesh": self.mesh.inputs(),
             "solver": asdict(self.solver),
         }

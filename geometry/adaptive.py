@@ -37,7 +37,13 @@ from dataclasses import dataclass, replace
 import numpy as np
 from roughfriction.case import MeshOptions
 from roughfriction.errors import InputError
-from roughfriction.geometry.mesh import COARSE_LAYERS_PER_LEVEL, layer_layout
+from roughfriction.geometry.mesh import (
+    COARSE_LAYERS_PER_LEVEL,
+    CONTACT_MEMORY_PER_NODE_GB,
+    MEMORY_PER_DOF_GB,
+    MEMORY_PER_RANK_GB,
+    layer_layout,
+)
 from roughfriction.geometry.surface import bilinear_refine
 
 
@@ -109,6 +115,17 @@ def dilate(mask: np.ndarray, margin: int) -> np.ndarray:
     for _ in range(margin):
         result = neighbourhood_max(result)
     return result
+
+
+def cells_at_nodes(nodes: np.ndarray, margin: int = 0) -> np.ndarray:
+    """The cells touching the marked nodes of a periodic grid (node (i, j) is a corner of cells
+    (i - 1 .. i, j - 1 .. j)), dilated by ``margin`` cells (:func:`dilate`): a zone mask on the
+    same grid, shape of ``nodes``."""
+    nodes = np.asarray(nodes, dtype=bool)
+    cells = nodes.copy()
+    for shift in ((1, 0), (0, 1), (1, 1)):
+        cells |= np.roll(nodes, (-shift[0], -shift[1]), axis=(0, 1))
+    return dilate(cells, margin)
 
 
 def quadtree_closure(demand: np.ndarray, level: int) -> np.ndarray:
@@ -415,3 +432,18 @@ def reduced_dofs(grid: np.ndarray, cells: CellSizes) -> int:
     _, weights = hanging_masters(grid, cells)
     own = (grid[:, 0] < n) & (grid[:, 1] < n) & (grid[:, 2] > 0) & (weights[:, 0] == 1.0)
     return 3 * int(np.count_nonzero(own))
+
+
+def layout_dofs(layout: AdaptiveLayout) -> int:
+    """Reduced dofs of the adaptive block (:func:`reduced_dofs`) [-]."""
+    return reduced_dofs(adaptive_block(layout.cells)[0], layout.cells)
+
+
+def estimated_memory_gb(layout: AdaptiveLayout, ranks: int, dofs: int | None = None) -> float:
+    """Peak memory of an FEM run on the adaptive block, summed over ``ranks`` ranks [GB]: the
+    fit of ``geometry.mesh.estimated_memory_gb`` with this block's reduced ``dofs`` (default
+    :func:`layout_dofs`) and the finest grid's N^2 surface nodes on every rank (the contact is
+    evaluated on the whole surface)."""
+    dofs = layout_dofs(layout) if dofs is None else dofs
+    return (ranks * (MEMORY_PER_RANK_GB + CONTACT_MEMORY_PER_NODE_GB * layout.grid_size**2)
+            + MEMORY_PER_DOF_GB * dofs)

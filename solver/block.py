@@ -15,17 +15,23 @@ import numpy as np
 from mpi4py import MPI
 from roughfriction.case import MeshOptions
 from roughfriction.errors import InputError
+from roughfriction.geometry.adaptive import (
+    AdaptiveLayout,
+    adaptive_block,
+    adaptive_layout,
+    node_coordinates,
+)
 from roughfriction.geometry.mesh import (
     GMSH_HEXAHEDRON,
     MIN_JACOBIAN_RATIO,
     Block,
+    BlockNodes,
     Boundary,
     add_block_to_gmsh,
     blend_layers_needed,
     block_nodes,
     corner_jacobians,
     gmsh_model,
-    layer_layout,
 )
 from roughfriction.geometry.mesh_file import write_msh
 
@@ -41,13 +47,15 @@ def build_block(heights: np.ndarray, spacing: float, options: MeshOptions, comm)
     spacing : float
         Grid spacing h [m].
     options : MeshOptions
-        Layering.
+        Layering; with ``options.refinement`` the contact-adaptive block
+        (``geometry.adaptive``) on the bilinear surface of the heights.
     comm : mpi4py.MPI.Comm
         Communicator the mesh is distributed over.
 
     Returns
     -------
     Block
+        Grid index, ``n`` and ``spacing`` of the finest grid (h / 2^L) for an adaptive block.
 
     Raises
     ------
@@ -56,20 +64,59 @@ def build_block(heights: np.ndarray, spacing: float, options: MeshOptions, comm)
         fixes it).
     """
     heights = np.asarray(heights, dtype=float)
-    n = heights.shape[0]
-    layer_z, layer_stride = layer_layout(n, spacing, options)
-    grid, coordinates, hexahedra = None, np.empty((0, 3)), np.empty((0, 8), dtype=np.int64)
+    layout = block_layout(heights.shape[0], spacing, options)  # a bad zone fails on every rank
+    nodes = None
     if comm.rank == 0:
-        nodes = block_nodes(heights, spacing, options)
-        grid = nodes.grid
+        nodes = (block_nodes(heights, spacing, options) if layout is None
+                 else adaptive_block_nodes(heights, layout))
+    block = distributed_block(nodes, comm)
+    check_jacobians(block, heights - heights.mean(), options.blend_layers, spacing)
+    return block
+
+
+def block_layout(n: int, spacing: float, options: MeshOptions) -> AdaptiveLayout | None:
+    """The contact-adaptive layout of the block under an n x n surface of spacing h [m] when
+    ``options.refinement`` asks for one (``geometry.adaptive.adaptive_layout``), else None."""
+    refinement = options.refinement
+    if refinement is None:
+        return None
+    return adaptive_layout(n, spacing, refinement.level, refinement.zone, options)
+
+
+def mesh_nodes(heights: np.ndarray, spacing: float, options: MeshOptions) -> BlockNodes:
+    """The whole block on one process: the structured block (``geometry.mesh.block_nodes``)
+    or, with ``options.refinement``, the adaptive one (:func:`adaptive_block_nodes`)."""
+    layout = block_layout(np.shape(heights)[0], spacing, options)
+    if layout is None:
+        return block_nodes(heights, spacing, options)
+    return adaptive_block_nodes(heights, layout)
+
+
+def adaptive_block_nodes(heights: np.ndarray, layout: AdaptiveLayout) -> BlockNodes:
+    """The adaptive block on one process, its nodes on the bilinear surface of the own-grid
+    ``heights`` [m] (``geometry.adaptive.node_coordinates``), cells x-major as
+    ``geometry.mesh.block_nodes`` orders them; grid units and spacing those of the finest grid."""
+    grid, hexahedra = adaptive_block(layout.cells)
+    corner = grid[hexahedra[:, 0]]
+    hexahedra = hexahedra[np.lexsort((corner[:, 2], corner[:, 1], corner[:, 0]))]
+    return BlockNodes(grid, node_coordinates(layout, grid, heights), hexahedra, layout.layer_z,
+                      layout.cells.layer_stride, layout.grid_size, layout.fine_spacing)
+
+
+def distributed_block(nodes: BlockNodes | None, comm) -> Block:
+    """The block of ``nodes`` (given on rank 0, None elsewhere) through gmsh and gmshio,
+    distributed in x-slabs (:func:`slab_mesh`)."""
+    coordinates, hexahedra = np.empty((0, 3)), np.empty((0, 8), dtype=np.int64)
+    if comm.rank == 0:
         with gmsh_model() as gmsh:
             add_block_to_gmsh(gmsh, nodes)
             coordinates, hexahedra = gmsh_hexahedra(gmsh.model)
     mesh = slab_mesh(comm, coordinates, hexahedra)
-    grid_index = comm.bcast(grid, root=0)[mesh.geometry.input_global_indices]
-    block = Block(mesh, grid_index, layer_z, layer_stride, n, spacing)
-    check_jacobians(block, heights - heights.mean(), options.blend_layers)
-    return block
+    layout = comm.bcast(nodes and (nodes.grid, nodes.layer_z, nodes.layer_stride, nodes.n,
+                                   nodes.spacing), root=0)
+    grid, layer_z, layer_stride, n, grid_spacing = layout
+    return Block(mesh, grid[mesh.geometry.input_global_indices], layer_z, layer_stride, n,
+                 grid_spacing)
 
 
 def write_block_msh(heights: np.ndarray, spacing: float, options: MeshOptions, path: str,
@@ -79,7 +126,7 @@ def write_block_msh(heights: np.ndarray, spacing: float, options: MeshOptions, p
     error = None
     if comm.rank == 0:
         try:
-            write_msh(block_nodes(heights, spacing, options), path)
+            write_msh(mesh_nodes(heights, spacing, options), path)
         except InputError as refused:
             error = str(refused)
     error = comm.bcast(error, root=0)
@@ -165,7 +212,8 @@ def boundary_facet_tags(block: Block):
     return dolfinx_mesh.meshtags(mesh, 2, facets[tagged].astype(np.int32), values[tagged])
 
 
-def check_jacobians(block: Block, heights: np.ndarray, blend_layers: int) -> None:
+def check_jacobians(block: Block, heights: np.ndarray, blend_layers: int,
+                    spacing: float | None = None) -> None:
     """Refuse inverted or badly distorted cells of the moved block.
 
     Every owned cell's corner Jacobians are compared with the flat block's (node z on its layer,
@@ -180,6 +228,8 @@ def check_jacobians(block: Block, heights: np.ndarray, blend_layers: int) -> Non
         Mean-free surface heights [m], (N, N).
     blend_layers : int
         Blend layers used [-].
+    spacing : float, optional
+        Spacing of ``heights`` [m], whose layers ``blend_layers`` counts; default the block's.
     """
     mesh = block.mesh
     num_cells = mesh.topology.index_map(3).size_local
@@ -196,7 +246,7 @@ def check_jacobians(block: Block, heights: np.ndarray, blend_layers: int) -> Non
     examples = comm.allgather([tuple(int(v) for v in block.grid_index[cell_nodes[c, 0]])
                                for c in bad[:3]])
     examples = [e for rank_examples in examples for e in rank_examples][:3]
-    needed = blend_layers_needed(heights, block.spacing)
+    needed = blend_layers_needed(heights, spacing or block.spacing)
     state = "inverted" if worst <= 0 else "distorted"
     raise InputError(
         f"{num_bad} mesh cells {state} by the surface heights (worst Jacobian ratio "

@@ -2,15 +2,21 @@
 per surface node, friction at integration points.
 
 The flat is horizontal at height h and slides by U in x. The contact surface is the top of the
-hexahedral mesh: N x N periodic faces of side h_grid, each the bilinear interpolant of its four
-corner nodes (the surface the FEM resolves), with n x n Gauss points q per face (weights w_q,
-sum 1 per face; shape functions N_b of the corners b).
+hexahedral mesh: periodic faces on an N x N grid of spacing h_grid, each the bilinear
+interpolant of its four corner nodes (the surface the FEM resolves), with n x n Gauss points q
+per face (weights w_q, sum 1 per face; shape functions N_b of the corners b). The faces are
+N x N squares of side h_grid, or on a contact-adaptive block (``geometry.adaptive``) the top
+cells, 2^k h_grid wide (area A_f); a corner that hangs on a coarser face's edge has no
+constraint of its own: its displacement is the interpolation of that face's corners
+(``SurfaceFaces``), to which its forces and tangent go. Below, areas are A_f w_q per point
+(h_grid^2 w_q on the uniform grid) and A_a = sum_q W_aq per node.
 
 * **Normal contact, per node** (a mortar-type weighted gap): node a stands for its tributary
   area, the quarter of each of its 4 faces nearest to it (the points of a face where N_a is
-  largest; n is even). Its weighted gap is the mean gap over that area, g~_a = sum_q W_aq g_q
-  with g_q = h - sum_b N_b(q) (Z_b + u_z,b) and W_aq = w_q on a's tributary points
-  (sum_q W_aq = 1), and its pressure p_a follows from g~_a by the augmented Lagrangian law of
+  largest; n is even). Its weighted gap is the mean gap over that area,
+  g~_a = sum_q W_aq g_q / A_a with g_q = h - sum_b N_b(q) (Z_b + u_z,b) and W_aq = A_f w_q on
+  a's tributary points (shared by the weights of a hanging corner's nodes), and its pressure
+  p_a follows from g~_a by the augmented Lagrangian law of
   :mod:`solver.contact_law` (after a converged Newton solve, Uzawa sets lambda_a <- p_a and
   re-solves until no node penetrates deeper than a tolerance, so the contact does not depend on
   eps_N). The pressure field is p_a on a's tributary area; the contact area is the tributary
@@ -21,10 +27,11 @@ sum 1 per face; shape functions N_b of the corners b).
   w_q - w_s,q, with w_q = (U - u_x, -u_y) at q, the committed stick point w_s,q and p_q the
   pressure of the node whose tributary area holds q.
 
-Forces and tangent are the derivatives of the contact energy sum_a h_grid^2 psi(g~_a) and of
-the friction work at the points: f_b = h_grid^2 sum_q w_q N_b(q) (-t_q, p_q). A node's weighted
-gap involves its 9 neighbours, so the tangent couples a node to the 25 nodes within 2 grid
-steps (``NEIGHBOURS``). A slipping point below p_r couples its traction to its node's pressure
+Forces and tangent are the derivatives of the contact energy sum_a A_a psi(g~_a) and of
+the friction work at the points: f_b = sum_q A_f w_q N_b(q) (-t_q, p_q). On the uniform grid a
+node's weighted gap involves its 9 neighbours, so the tangent couples a node to the 25 nodes
+within 2 grid steps (``NEIGHBOURS``); on faces of varying width to the nodes of the pattern
+``RigidFlat.neighbours``. A slipping point below p_r couples its traction to its node's pressure
 (dt/dp = tau_c / p_r along the slip): that part is not symmetric (``ContactResponse.symmetric``),
 and a Newton solver may leave it out (``RigidFlat.symmetric_tangent``).
 
@@ -33,8 +40,9 @@ last converged step keep the uncapped stick law (tangential predictor). A point 
 the last converged step carries no shear in the step in which it touches and sticks where it is
 at its end. Frictionless steps (the preload) have t = 0, so sliding starts from full stick.
 
-Every rank evaluates all N^2 nodes and faces from the gathered surface displacements (cheap
-sparse NumPy over N^2 n^2 points, identical on every rank) and adds the rows of the surface
+Every rank evaluates all nodes and faces from the gathered surface displacements (cheap
+sparse NumPy over the faces' points, identical on every rank; node arrays span the N^2 grid
+points, zero where no free node is) and adds the rows of the surface
 nodes it owns: the contact state is the same on any number of ranks.
 
 Signs: R = f_int - f_ext. The flat pushes with -p e_z and drags with t, so node b's residual
@@ -48,6 +56,7 @@ from dataclasses import dataclass
 from functools import cache, cached_property
 
 import numpy as np
+from roughfriction.geometry.adaptive import CellSizes, hanging_masters
 from roughfriction.solver.contact_law import ContactLaw
 from scipy import sparse
 
@@ -79,6 +88,92 @@ def nearest_corner(shape: np.ndarray) -> np.ndarray:
     """The corner (0..3, ``CORNERS``) whose tributary quarter of the face holds each point: the
     one with the largest N_a(q) (unique for an even number of points per side), (n^2,)."""
     return np.argmax(shape, axis=1)
+
+
+@dataclass(frozen=True, eq=False)
+class SurfaceFaces:
+    """The top faces of the block on the finest surface grid (N x N, spacing h_grid).
+
+    Attributes
+    ----------
+    first : numpy.ndarray
+        (i0, j0) of each face's first corner, shape (F, 2), face-major (i0, then j0).
+    width : numpy.ndarray
+        Side of each face [grid spacings], shape (F,).
+    masters : numpy.ndarray
+        Free grid nodes i N + j behind each corner (``CORNERS`` order), shape (F, 4, 4): the
+        corner itself, or for a hanging corner the corners of the coarse face it lies on.
+    weights : numpy.ndarray
+        Their weights, shape (F, 4, 4) (each corner's sum to 1; 0 in unused slots).
+    cell_face : numpy.ndarray
+        The face covering each finest cell (i, j), shape (N, N).
+    uniform : bool
+        All faces 1 spacing wide (no hanging corners).
+    """
+
+    first: np.ndarray
+    width: np.ndarray
+    masters: np.ndarray
+    weights: np.ndarray
+    cell_face: np.ndarray
+    uniform: bool
+
+    def on_grid(self, face_values: np.ndarray) -> np.ndarray:
+        """Per-face values as an N x N map of the finest cells, each cell its face's value."""
+        return np.asarray(face_values)[self.cell_face]
+
+
+def surface_faces(n: int, cells: CellSizes | None = None) -> SurfaceFaces:
+    """The top faces of a block of N x N finest cells: the uniform grid, or with ``cells`` the
+    top cell layer of an adaptive block (``geometry.adaptive``), hanging corners tied to their
+    coarse face's corners (``geometry.adaptive.hanging_masters``)."""
+    if cells is None:
+        cells = CellSizes.uniform(n, np.ones(1, dtype=np.int64))
+    top = cells.num_layers - 1
+    i0, j0, width = cells.layer_cells(top)
+    corner_i = i0[:, None] + width[:, None] * CORNERS[:, 0]
+    corner_j = j0[:, None] + width[:, None] * CORNERS[:, 1]
+    grid = np.column_stack([corner_i.ravel(), corner_j.ravel(),
+                            np.full(corner_i.size, cells.num_layers)])
+    masters, weights = hanging_masters(grid, cells)
+    nodes = (masters[..., 0] % n) * n + masters[..., 1] % n
+    a, b = np.meshgrid(np.arange(n), np.arange(n), indexing="ij")
+    size = cells.size(top, a, b)
+    cell_face = np.searchsorted(i0 * n + j0, (a // size * size) * n + b // size * size)
+    return SurfaceFaces(np.column_stack([i0, j0]), width, nodes.reshape(-1, 4, 4),
+                        weights.reshape(-1, 4, 4), cell_face, bool(np.all(width == 1)))
+
+
+def neighbour_stencil(n: int) -> np.ndarray:
+    """Grid nodes of the 25 couplings (``NEIGHBOURS``) of every node of the uniform periodic
+    N x N grid, shape (N^2, 25)."""
+    i, j = np.divmod(np.arange(n * n), n)
+    return ((i[:, None] + NEIGHBOURS[:, 0]) % n) * n + (j[:, None] + NEIGHBOURS[:, 1]) % n
+
+
+def coupling_pattern(to_nodes, point_pressure, gap_gradient, interpolation) -> np.ndarray:
+    """Grid nodes b that the contact tangent couples each node a to (through a shared point,
+    its pressure or its gap), padded with -1, shape (N^2, widest row)."""
+    absolute = [abs(sparse.csr_matrix(m)) for m in (to_nodes, point_pressure, gap_gradient,
+                                                  interpolation)]
+    pattern = (absolute[0] @ (absolute[1] @ absolute[2] + absolute[3])).tocsr()
+    pattern.eliminate_zeros()
+    counts = np.diff(pattern.indptr)
+    columns = np.full((pattern.shape[0], max(int(counts.max(initial=0)), 1)), -1, dtype=np.int64)
+    slot = np.arange(pattern.nnz) - np.repeat(pattern.indptr[:-1], counts)
+    columns[np.repeat(np.arange(pattern.shape[0]), counts), slot] = pattern.indices
+    return columns
+
+
+def first_occurrences(neighbours: np.ndarray) -> np.ndarray:
+    """1.0 where a row's entry is a node not met earlier in the row (and not the -1 padding),
+    else 0.0 (a neighbour met twice on a grid smaller than 5 holds its block once), shape of
+    ``neighbours`` plus two unit axes (for 3 x 3 blocks)."""
+    first = np.zeros(neighbours.shape)
+    for column in range(neighbours.shape[1]):
+        earlier = (neighbours[:, :column] == neighbours[:, column:column + 1]).any(axis=1)
+        first[:, column] = (neighbours[:, column] >= 0) & ~earlier
+    return first
 
 
 @dataclass(frozen=True)
@@ -183,16 +278,16 @@ class ContactHistory:
 
 
 class RigidFlat:
-    """The contact surface (N x N faces): its quadrature, the gathers of the surface nodes over
-    the ranks, the contact law at its points and their history.
+    """The contact surface (faces on the N x N grid): its quadrature, the gathers of the surface
+    nodes over the ranks, the contact law at its points and their history.
 
     Parameters
     ----------
     comm : mpi4py.MPI.Comm
         Communicator (gathers the surface displacements).
     nodes : numpy.ndarray
-        Local indices of the surface nodes this rank owns (one per grid position i, j < N),
-        shape (m,).
+        Local indices of the free surface nodes this rank owns (one per grid position i, j < N
+        where a face corner does not hang), shape (m,).
     grid_index : numpy.ndarray
         (i, j) of those nodes, shape (m, 2).
     grid_size : int
@@ -205,6 +300,9 @@ class RigidFlat:
         Pressure and friction at the points.
     points_per_side : int
         Gauss points per face side n [-].
+    cells : CellSizes, optional
+        Cell sizes of an adaptive block (``geometry.adaptive``): the faces are its top cells,
+        ``nodes`` its free (not hanging) surface nodes; default the uniform N x N faces.
 
     Attributes
     ----------
@@ -218,7 +316,8 @@ class RigidFlat:
     """
 
     def __init__(self, comm, nodes: np.ndarray, grid_index: np.ndarray, grid_size: int,
-                 heights: np.ndarray, spacing: float, law: ContactLaw, points_per_side: int = 2):
+                 heights: np.ndarray, spacing: float, law: ContactLaw, points_per_side: int = 2,
+                 cells: CellSizes | None = None):
         self.comm = comm
         self.nodes = nodes
         self.grid_size = n = grid_size
@@ -226,66 +325,81 @@ class RigidFlat:
         self.law = law
         self.symmetric_tangent = False  # see the class docstring
         self.owned_grid = grid_index[:, 0] * n + grid_index[:, 1]  # grid node of each owned node
-        self._gather_order = np.argsort(np.concatenate(comm.allgather(self.owned_grid)))
-        if len(self._gather_order) != n * n or np.any(
-                np.sort(self._gather_order) != np.arange(n * n)):
-            raise RuntimeError(f"surface nodes do not cover the {n} x {n} grid once")
+        self._gathered_grid = np.concatenate(comm.allgather(self.owned_grid))
+        faces = surface_faces(n, cells)
+        needed = np.unique(faces.masters[faces.weights > 0.0])
+        if not np.array_equal(np.sort(self._gathered_grid), needed):
+            raise RuntimeError(f"surface nodes are not the {len(needed)} free nodes of the "
+                               f"{n} x {n} surface grid, once each")
         self.node_heights = self.gather_nodes(heights)
-        self._build_quadrature(points_per_side)
+        self._build_quadrature(faces, points_per_side)
         num_points = len(self.point_weight)
         self.committed = ContactHistory(np.zeros((num_points, 2)),
                                         np.zeros(num_points, dtype=bool),
                                         np.zeros(num_points, dtype=bool), np.zeros(n * n))
         self.multiplier = self.committed.multiplier
 
-    def _build_quadrature(self, points_per_side: int) -> None:
+    def _build_quadrature(self, faces: SurfaceFaces, points_per_side: int) -> None:
         """The points of every face and the sparse maps between points and grid nodes."""
         n = self.grid_size
         self.shape, self.weight = face_quadrature(points_per_side)
-        q = len(self.weight)
-        i, j = np.divmod(np.arange(n * n), n)
-        # corners[f, a]: grid node of corner a of face f = i N + j
-        self.corners = (((i[:, None] + CORNERS[:, 0]) % n) * n + (j[:, None] + CORNERS[:, 1]) % n)
-        self.point_weight = np.tile(self.weight, n * n)  # w_q per point (face area units)
-        self.heights = self.interpolate(self.node_heights)  # Z at the points [m]
-        # sparse maps between points and nodes: w_q N_a(q) (consistent nodal values), N_a(q)
-        # (interpolation) and W_aq (tributary means)
-        rows = np.repeat(self.corners, q, axis=0).ravel()
-        points = np.repeat(np.arange(n * n * q), 4)
-        num_points = n * n * q
-        self._to_nodes = sparse.csr_matrix(
-            (np.tile((self.weight[:, None] * self.shape).ravel(), n * n), (rows, points)),
-            shape=(n * n, num_points))
+        q, num_faces = len(self.weight), len(faces.width)
+        num_points = num_faces * q
+        self.point_weight = np.tile(self.weight, num_faces)  # w_q per point (face area units)
+        self.face_area = (faces.width * self.spacing) ** 2  # A_f [m^2]
+        self.point_area = self.point_weight * np.repeat(self.face_area, q)  # A_f w_q [m^2]
+        self.faces = faces
+        # the free nodes behind each point's face corners: N_c(q) times the corner's weights
+        point = np.arange(num_points)[:, None, None]
+        corner_weight = (np.tile(self.shape, (num_faces, 1))[:, :, None]
+                         * np.repeat(faces.weights, q, axis=0))  # (P, 4 corners, 4 masters)
+        corner_nodes = np.repeat(faces.masters, q, axis=0)
         self._interpolation = sparse.csr_matrix(
-            (np.tile(self.shape.ravel(), n * n), (points, rows)), shape=(num_points, n * n))
-        nearest = self.corners[:, nearest_corner(self.shape)].ravel()  # node of each point
-        self._tributary = sparse.csr_matrix(
-            (self.point_weight, (nearest, np.arange(num_points))), shape=(n * n, num_points))
-        # p_q = sum_a W_aq / w_q p_a, and dg~_a/du_z,b = -sum_q W_aq N_b(q)
-        self._point_pressure = (sparse.diags(1.0 / self.point_weight)
-                                @ self._tributary.T).tocsr()
+            (corner_weight.ravel(), (np.broadcast_to(point, corner_nodes.shape).ravel(),
+                                     corner_nodes.ravel())), shape=(num_points, n * n))
+        self._to_nodes = (self._interpolation.T @ sparse.diags(self.point_area)).tocsr()
+        self.heights = self.interpolate(self.node_heights)  # Z at the points [m]
+        # W_aq [m^2]: a point's area goes to its face's nearest corner (to that corner's free
+        # nodes, by their weights, where it hangs)
+        nearest = nearest_corner(self.shape)
+        points = np.arange(num_points)
+        point_corner = np.tile(nearest, num_faces)
+        tributary_nodes = corner_nodes[points, point_corner]  # (P, 4)
+        tributary_weights = (np.repeat(faces.weights, q, axis=0)[points, point_corner]
+                             * self.point_area[:, None])
+        area = sparse.csr_matrix((tributary_weights.ravel(), (tributary_nodes.ravel(),
+                                                              np.repeat(points, 4))),
+                                 shape=(n * n, num_points))
+        self.node_area = np.asarray(area.sum(axis=1)).ravel()  # A_a [m^2] (0: no node there)
+        self.node_free = self.node_area > 0.0
+        # g~_a = sum_q W_aq g_q / A_a, p_q = sum_a W_aq p_a / (A_f w_q), dg~_a/du_z,b
+        self._tributary = (sparse.diags(np.where(self.node_free, 1.0 / np.where(
+            self.node_free, self.node_area, 1.0), 0.0)) @ area).tocsr()
+        self._point_pressure = (sparse.diags(1.0 / self.point_area) @ area.T).tocsr()
         self._gap_gradient = (self._tributary @ self._interpolation).tocsr()
-        self._neighbours = (((i[:, None] + NEIGHBOURS[:, 0]) % n) * n
-                            + (j[:, None] + NEIGHBOURS[:, 1]) % n)
-        self._first_neighbour = np.array(  # a neighbour met twice on a small grid counts once
-            [[node not in row[:k] for k, node in enumerate(row)] for row in self._neighbours[:1]])
+        self.neighbours = (neighbour_stencil(n) if faces.uniform
+                           else coupling_pattern(self._to_nodes, self._point_pressure,
+                                                 self._gap_gradient, self._interpolation))
+        self._first_neighbour = first_occurrences(self.neighbours)
 
     # --- the surface grid ---------------------------------------------------------------------
 
     def gather_nodes(self, values: np.ndarray) -> np.ndarray:
-        """Owned-node values of every rank as one array over the grid nodes i N + j."""
-        return np.concatenate(self.comm.allgather(np.asarray(values)))[self._gather_order]
+        """Owned-node values of every rank as one array over the grid nodes i N + j (zero where
+        the surface has no free node)."""
+        values = np.asarray(values)
+        gathered = np.zeros((self.grid_size**2,) + values.shape[1:], dtype=values.dtype)
+        gathered[self._gathered_grid] = np.concatenate(self.comm.allgather(values))
+        return gathered
 
     def interpolate(self, node_values: np.ndarray) -> np.ndarray:
         """Grid-node values at the integration points (bilinear in each face), shape (P, ...)."""
-        corner_values = node_values[self.corners]  # (F, 4, ...)
-        return np.einsum("qa,fa...->fq...", self.shape, corner_values).reshape(
-            (-1,) + node_values.shape[1:])
+        return self._interpolation @ node_values
 
     def to_nodes(self, point_values: np.ndarray) -> np.ndarray:
-        """sum_q w_q N_a(q) v_q h_grid^2 for every grid node a: point densities [x/m^2] as
+        """sum_q A_f w_q N_a(q) v_q for every grid node a: point densities [x/m^2] as
         consistent nodal values [x]."""
-        return self._to_nodes @ point_values * self.spacing**2
+        return self._to_nodes @ point_values
 
     # --- the contact law ------------------------------------------------------------------------
 
@@ -398,12 +512,13 @@ class RigidFlat:
                 stiff |= np.diff(matrix.indptr) > 0
                 matrices[i, j] = matrix
         nodes = np.flatnonzero(stiff)
-        rows = np.repeat(nodes, len(NEIGHBOURS))
-        columns = self._neighbours[nodes].ravel()
-        tangent = np.zeros((3, 3, len(nodes), len(NEIGHBOURS)))  # component-major: contiguous
+        width = self.neighbours.shape[1]
+        rows = np.repeat(nodes, width)
+        columns = np.maximum(self.neighbours[nodes], 0).ravel()
+        tangent = np.zeros((3, 3, len(nodes), width))  # component-major: contiguous
         for (i, j), matrix in matrices.items():
             tangent[i, j] = np.asarray(matrix[rows, columns]).reshape(len(nodes), -1)
-        tangent *= self._first_neighbour * self.spacing**2
+        tangent *= self._first_neighbour[nodes]
         return nodes, tangent.transpose(2, 3, 0, 1)
 
     # --- history --------------------------------------------------------------------------------
@@ -433,8 +548,8 @@ class RigidFlat:
         return float(np.max(-response.node_gap[response.node_active], initial=0.0))
 
     def integrate(self, point_values: np.ndarray) -> float:
-        """sum_q w_q v_q h_grid^2 over all faces: the integral of a point density [x m^2]."""
-        return float(self.point_weight @ point_values) * self.spacing**2
+        """sum_q A_f w_q v_q over all faces: the integral of a point density [x m^2]."""
+        return float(self.point_area @ point_values)
 
     def normal_force(self, response: ContactResponse) -> float:
         """F_n = integral of p over the surface [N]."""
@@ -446,31 +561,33 @@ class RigidFlat:
 
     def area_ratio(self, mask: np.ndarray) -> float:
         """Fraction of the nominal area whose points satisfy ``mask`` (e.g. p > 0) [-]."""
-        return float(self.point_weight @ mask) / self.grid_size**2
+        return float(self.point_area @ mask) / float(self.face_area.sum())
 
     def count(self, mask: np.ndarray) -> int:
         """Number of points (or nodes) where ``mask`` holds [-]."""
         return int(np.count_nonzero(mask))
 
     def node_maps(self, response: ContactResponse) -> dict:
-        """N x N nodal maps ([i, j] at x = i h, y = j h) of a contact state.
+        """N x N nodal maps ([i, j] at x = i h, y = j h on the finest grid) of a contact state.
 
         "contact": p_a > 0 (bool); "slip": in contact and every point of its tributary area
-        slipping (bool); "pressure" and "shear_x": the consistent nodal forces over h_grid^2
-        [Pa]; "contact_fraction": per face (i, j), the fraction of its area in contact [-].
+        slipping (bool); "pressure" and "shear_x": the consistent nodal forces over the node's
+        tributary area A_a [Pa]; "contact_fraction": per finest cell (i, j), the fraction of the
+        area of the face holding it in contact [-]. Grid points without a free surface node
+        (inside a coarse face, or where it hangs) are out of contact with zero forces.
         """
         n = self.grid_size
-        weight = self.point_weight
         touching = self._tributary @ response.in_contact.astype(float)
         sticking = self._tributary @ (response.in_contact & ~response.slipping).astype(float)
-        area = self.spacing**2
-        fraction = (weight * response.in_contact).reshape(n * n, -1).sum(axis=1)
+        area = np.where(self.node_free, self.node_area, 1.0)
+        fraction = (self.point_weight * response.in_contact).reshape(len(self.face_area), -1).sum(
+            axis=1)
         return {
             "contact": (touching > 0.0).reshape(n, n),
             "slip": ((touching > 0.0) & (sticking == 0.0)).reshape(n, n),
             "pressure": (response.node_force[:, 2] / area).reshape(n, n),
             "shear_x": (-response.node_force[:, 0] / area).reshape(n, n),
-            "contact_fraction": fraction.reshape(n, n),
+            "contact_fraction": self.faces.on_grid(fraction),
         }
 
     def touching_height(self, displacement: np.ndarray, force: float,
@@ -478,7 +595,7 @@ class RigidFlat:
         """A first guess of the flat height h [m] carrying ``force`` [N] from ``displacement``.
 
         Every node is a spring k, the penalty eps a in series with the solid under it, taken as
-        a uniformly loaded square of its tributary area a = h_grid^2 on a half-space (mean
+        a uniformly loaded square of its tributary area a = A_a on a half-space (mean
         deflection 0.95 p sqrt(a) / E', Timoshenko & Goodier), and sum k <-g~_a(h)> = force is
         solved exactly (the penalty alone would put the whole load on the highest
         point, from where Newton overshoots into deep penetration).
@@ -492,11 +609,11 @@ class RigidFlat:
         elastic_modulus : float
             E' = E / (1 - nu^2) [Pa].
         """
-        tops = self._tributary @ (self.heights + self.interpolate(
-            self.gather_nodes(displacement[self.nodes, 2])))  # h - g~_a [m]
-        area = self.spacing**2
-        stiffness = np.full(len(tops), 1.0 / (1.0 / (self.law.penalty * area)
-                                              + 0.95 / (elastic_modulus * np.sqrt(area))))
+        tops = (self._tributary @ (self.heights + self.interpolate(
+            self.gather_nodes(displacement[self.nodes, 2]))))[self.node_free]  # h - g~_a [m]
+        area = self.node_area[self.node_free]
+        stiffness = 1.0 / (1.0 / (self.law.penalty * area)
+                           + 0.95 / (elastic_modulus * np.sqrt(area)))
         order = np.argsort(tops)[::-1]
         tops, stiffness = tops[order], stiffness[order]
         # with the m highest nodes in contact: h = (sum k z - force) / sum k

@@ -17,7 +17,7 @@ from dolfinx.fem import petsc as fem_petsc
 from mpi4py import MPI
 from petsc4py import PETSc
 from roughfriction.case import SolverOptions
-from roughfriction.solver.contact import NEIGHBOURS, ContactResponse, RigidFlat
+from roughfriction.solver.contact import ContactResponse, RigidFlat
 from roughfriction.solver.linear import LinearSolver
 from roughfriction.solver.periodic import PeriodicReduction
 from roughfriction.solver.solid import Solid
@@ -94,12 +94,11 @@ class ReducedSystem:
         on the periodic surface grid (the columns of the contact tangent)."""
         flat, n = self.flat, self.flat.grid_size
         node_reduced = flat.gather_nodes(self.reduction.reduced_node[flat.nodes])
-        i, j = np.divmod(flat.owned_grid, n)
-        neighbours = (((i[:, None] + NEIGHBOURS[:, 0]) % n) * n
-                      + (j[:, None] + NEIGHBOURS[:, 1]) % n)
+        neighbours = flat.neighbours[flat.owned_grid]  # -1: padding (ignored by PETSc)
         self._contact_rows = (3 * node_reduced[flat.owned_grid][:, None]
                               + np.arange(3)).astype(PETSc.IntType)
-        self._contact_columns = node_reduced[neighbours].astype(PETSc.IntType)
+        self._contact_columns = np.where(neighbours >= 0, node_reduced[neighbours],
+                                         -1).astype(PETSc.IntType)
         self._owned_position = np.full(n * n, -1)  # grid node -> owned surface node, or -1
         self._owned_position[flat.owned_grid] = np.arange(len(flat.owned_grid))
 
@@ -252,7 +251,8 @@ class ReducedSystem:
         columns = np.concatenate([columns, np.broadcast_to(
             contact_columns, (len(contact_rows), 3, contact_columns.shape[2])).ravel()])
         size = solid.getSize()[1]
-        pairs = np.unique(rows.astype(np.int64) * size + columns)
+        kept = columns >= 0  # not the padding of a contact row
+        pairs = np.unique(rows[kept].astype(np.int64) * size + columns[kept])
         rows, columns = np.divmod(pairs, size)
         row_pointer = np.concatenate([[0], np.cumsum(np.bincount(rows, minlength=end - start))])
         matrix = PETSc.Mat().createAIJ(

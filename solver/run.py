@@ -13,10 +13,12 @@ from pathlib import Path
 
 import numpy as np
 from mpi4py import MPI
-from roughfriction.case import FemCase, Loading, MeshOptions
+from roughfriction.case import FemCase, Loading, MeshOptions, ZoneRefinement
 from roughfriction.errors import InputError
+from roughfriction.geometry.adaptive import AdaptiveLayout, CellSizes, cells_at_nodes, layout_dofs
+from roughfriction.geometry.adaptive import estimated_memory_gb as adaptive_memory_gb
 from roughfriction.geometry.mesh import Block, blend_layers_needed, estimated_memory_gb, mesh_size
-from roughfriction.solver.block import build_block
+from roughfriction.solver.block import block_layout, build_block
 from roughfriction.solver.contact import ContactResponse, RigidFlat
 from roughfriction.solver.contact_law import ContactLaw
 from roughfriction.solver.equilibrium import Equilibrium
@@ -74,15 +76,37 @@ def available_memory_gb(comm: MPI.Comm) -> float:
     return comm.allreduce(available, op=MPI.SUM)
 
 
-def check_memory(n: int, options: MeshOptions, comm: MPI.Comm) -> None:
+def check_memory(n: int, options: MeshOptions, comm: MPI.Comm,
+                 layout: AdaptiveLayout | None = None) -> None:
     """Refuse, before allocating anything, an n x n surface whose FEM block would not fit in
-    the memory available to the run (:func:`geometry.mesh.estimated_memory_gb`)."""
-    needed = estimated_memory_gb(n, options, comm.size)
+    the memory available to the run (:func:`geometry.mesh.estimated_memory_gb`, or
+    :func:`geometry.adaptive.estimated_memory_gb` for the adaptive ``layout``)."""
+    if layout is None:
+        dofs, what = mesh_size(n, options)[1], f"N = {n}"
+        needed = estimated_memory_gb(n, options, comm.size)
+    else:
+        dofs, what = layout_dofs(layout), f"N = {n} refined to level {layout.level}"
+        needed = adaptive_memory_gb(layout, comm.size, dofs)
     available = available_memory_gb(comm)
     if needed > available:
-        raise InputError(f"N = {n}: the FEM run needs about {needed:.3g} GB "
-                         f"({mesh_size(n, options)[1]:.3g} dofs), {available:.3g} GB are "
-                         "available; use a smaller --n or more nodes")
+        raise InputError(f"{what}: the FEM run needs about {needed:.3g} GB ({dofs:.3g} dofs), "
+                         f"{available:.3g} GB are available; use a smaller --n, less "
+                         "refinement or more nodes")
+
+
+def next_level_case(case: FemCase, fem_run: FemRun, margin: int = 1) -> FemCase:
+    """The case one contact-adaptive level finer than ``fem_run``'s (the run of ``case``):
+    refinement level L + 1 (L = 0 on the structured block) over the cells of the run's finest
+    grid (h / 2^L) touching a node in contact at the end of the preload or at inception,
+    dilated by ``margin`` of those cells for the junction growth
+    (``geometry.adaptive.cells_at_nodes``)."""
+    contact = np.asarray(fem_run.maps["contact_normal"], dtype=bool)
+    if "contact_sliding" in fem_run.maps:
+        contact = contact | np.asarray(fem_run.maps["contact_sliding"], dtype=bool)
+    refinement = case.mesh.refinement
+    level = 1 if refinement is None else refinement.level + 1
+    zone = ZoneRefinement(level, cells_at_nodes(contact, margin))
+    return replace(case, mesh=replace(case.mesh, refinement=zone))
 
 
 def stderr_progress(comm):
@@ -108,16 +132,16 @@ def with_blend_layers_needed(case: FemCase, progress) -> FemCase:
     return replace(case, mesh=replace(case.mesh, blend_layers=needed))
 
 
-def surface_contact(solid: Solid, block: Block, case: FemCase) -> RigidFlat:
-    """The rigid flat acting on the N x N top faces of the block, with this rank's owned
-    surface nodes (one per grid point: the periodic images at i = N or j = N share their
-    master's dofs and are left out)."""
+def surface_contact(solid: Solid, block: Block, case: FemCase, reduction: PeriodicReduction,
+                    cells: CellSizes | None = None) -> RigidFlat:
+    """The rigid flat acting on the top faces of the block, with the free surface nodes whose
+    reduced dofs this rank owns (one per grid point: periodic images and hanging nodes have no
+    dofs of their own). ``cells``: the adaptive block's cell sizes (faces of varying width);
+    its penalty is set on the finest spacing h / 2^L, the faces' in the refined zone."""
     V = solid.V
-    num_owned = V.dofmap.index_map.size_local
-    grid = dof_node_grid_index(V, block)[:num_owned]
-    n = block.n
-    on_surface = np.flatnonzero((grid[:, 2] == block.num_layers) & (grid[:, 0] < n)
-                                & (grid[:, 1] < n))
+    grid = dof_node_grid_index(V, block)
+    masters = reduction.master_node
+    on_surface = masters[grid[masters, 2] == block.num_layers]
     heights = V.tabulate_dof_coordinates()[on_surface, 2]
     material, spacing = case.material, block.spacing
     penalty = case.solver.penalty * material.E_star / spacing
@@ -125,8 +149,8 @@ def surface_contact(solid: Solid, block: Block, case: FemCase) -> RigidFlat:
                      tangential_penalty=case.solver.tangential_penalty * penalty,
                      shear_strength=material.tau_c,
                      ramp_pressure=case.solver.friction_ramp * material.Sy)
-    return RigidFlat(block.mesh.comm, on_surface, grid[on_surface, :2], n, heights, spacing,
-                     law, points_per_side=case.solver.contact_points)
+    return RigidFlat(block.mesh.comm, on_surface, grid[on_surface, :2], block.n, heights,
+                     spacing, law, points_per_side=case.solver.contact_points, cells=cells)
 
 
 def contact_maps(flat: RigidFlat, contact: ContactResponse, phase: str) -> dict:
@@ -204,15 +228,17 @@ def run_loads(case: FemCase, loads: Sequence[float], comm: MPI.Comm = MPI.COMM_W
     started = time.perf_counter()
     case = with_blend_layers_needed(case, progress)
     surface = case.surface
-    check_memory(surface.n, case.mesh, comm)
+    layout = block_layout(surface.n, surface.spacing, case.mesh)
+    check_memory(surface.n, case.mesh, comm, layout)
     block = build_block(surface.heights, surface.spacing, case.mesh, comm)
     solid = Solid(block.mesh, case.material, case.solver.elastic, case.solver.integration)
-    reduction = PeriodicReduction(solid.V, block)
-    flat = surface_contact(solid, block, case)
+    reduction = PeriodicReduction(solid.V, block, layout and layout.cells)
+    flat = surface_contact(solid, block, case, reduction, layout and layout.cells)
     equilibrium = Equilibrium(solid, reduction, flat, case.solver, block.spacing)
     sizes = {
         "cells": block.mesh.topology.index_map(3).size_global,
         "grid_size": block.n,
+        "refinement_level": layout.level if layout else 0,
         "layers": block.num_layers,
         "blend_layers": case.mesh.blend_layers,
         "depth_m": block.depth,

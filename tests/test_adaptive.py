@@ -9,6 +9,7 @@ from roughfriction.geometry.adaptive import (
     adaptive_block,
     adaptive_layout,
     balanced_levels,
+    cells_at_nodes,
     dilate,
     hanging_masters,
     node_coordinates,
@@ -303,32 +304,6 @@ def test_a_small_zone_costs_a_fraction_of_the_uniform_dofs():
     assert mesh_size(n, MeshOptions())[1] < dofs["adaptive"] < 0.6 * dofs["uniform"]
 
 
-def dolfinx_block(layout, heights, comm):
-    """The adaptive block as a dolfinx mesh distributed over comm in x-slabs (test helper for
-    the reduction; building it is not this module's job): Block."""
-    import ufl
-    from dolfinx import cpp
-    from dolfinx.cpp.io import perm_gmsh
-    from dolfinx.mesh import create_mesh
-    from roughfriction.geometry.mesh import Block
-    from roughfriction.solver.block import slab_partitioner
-
-    grid, hexahedra = adaptive_block(layout.cells)
-    if comm.rank == 0:
-        corner = grid[hexahedra[:, 0]]
-        cells = hexahedra[np.lexsort((corner[:, 2], corner[:, 1], corner[:, 0]))]
-        cells = cells[:, perm_gmsh(cpp.mesh.CellType.hexahedron, 8)]
-        coordinates = node_coordinates(layout, grid, heights)
-    else:
-        coordinates, cells = np.empty((0, 3)), np.empty((0, 8), dtype=np.int64)
-    domain = ufl.Mesh(ufl.VectorElement("Lagrange", ufl.hexahedron, 1))
-    mesh = create_mesh(comm, cells, coordinates, domain,
-                       partitioner=cpp.mesh.create_cell_partitioner(slab_partitioner))
-    grid_index = grid[mesh.geometry.input_global_indices]
-    return Block(mesh, grid_index, layout.layer_z, layout.cells.layer_stride, layout.grid_size,
-                 layout.fine_spacing)
-
-
 def uniaxial_strain_error():
     """Periodic sides, fixed bottom, pressure p on top of a flat adaptive block: u_z = -p (z + H)
     / M, u_x = u_y = 0 (M = lambda + 2 mu), which trilinear hexahedra and the hanging-node ties
@@ -338,14 +313,16 @@ def uniaxial_strain_error():
     from dolfinx.fem import petsc as fem_petsc
     from mpi4py import MPI
     from petsc4py import PETSc
+    from roughfriction.case import ZoneRefinement
     from roughfriction.geometry.mesh import Boundary
-    from roughfriction.solver.block import boundary_facet_tags
+    from roughfriction.solver.block import boundary_facet_tags, build_block
     from roughfriction.solver.periodic import PeriodicReduction
 
     n = 4
-    layout = adaptive_layout(n, SPACING, 2, patches(n, seed=3, fraction=0.15),
-                             MeshOptions(fine_layers=2))
-    block = dolfinx_block(layout, np.zeros((n, n)), MPI.COMM_WORLD)
+    zone = patches(n, seed=3, fraction=0.15)
+    options = MeshOptions(fine_layers=2, refinement=ZoneRefinement(2, zone))
+    layout = adaptive_layout(n, SPACING, 2, zone, options)
+    block = build_block(np.zeros((n, n)), SPACING, options, MPI.COMM_WORLD)
     V = fem.VectorFunctionSpace(block.mesh, ("Lagrange", 1))
     reduction = PeriodicReduction(V, block, layout.cells)
     assert 3 * reduction.num_reduced_global == reduced_dofs(adaptive_block(layout.cells)[0],
@@ -390,3 +367,12 @@ def test_a_flat_adaptive_block_under_uniform_pressure_is_in_uniaxial_strain():
 def test_the_adaptive_ties_hold_across_ranks():
     """The same on 2 ranks: copies of interface nodes and masters on the other rank."""
     assert uniaxial_strain_error() < 1e-9
+
+
+def test_the_cells_at_a_contact_node_are_its_four_cells_dilated_periodically():
+    nodes = np.zeros((6, 6), bool)
+    nodes[0, 3] = True
+    cells = cells_at_nodes(nodes)
+    assert set(zip(*np.nonzero(cells), strict=True)) == {(5, 2), (5, 3), (0, 2), (0, 3)}
+    wider = cells_at_nodes(nodes, margin=1)
+    assert wider.sum() == 16 and wider[4, 1] and wider[1, 4] and not wider[2, 2]

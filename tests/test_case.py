@@ -50,3 +50,33 @@ def test_a_slope_just_above_the_limit_is_refused_and_just_below_accepted():
     FemCase(Surface(0.99 * MAX_RMS_SLOPE * spacing * i, spacing), Loading(0.1))
     with pytest.raises(InputError, match="RMS slope"):
         FemCase(Surface(1.01 * MAX_RMS_SLOPE * spacing * i, spacing), Loading(0.1))
+
+
+def test_a_zone_refinement_enters_the_case_inputs_by_its_digest():
+    import json
+    from dataclasses import asdict, replace
+
+    from roughfriction.case import MeshOptions, ZoneRefinement
+
+    case = FemCase(Surface(np.zeros((4, 4)), 1e-6), Loading(0.155))
+    # unrefined: the keys of before (cache keys of earlier runs stay valid)
+    unrefined = asdict(MeshOptions())
+    assert unrefined.pop("refinement") is None
+    assert case.inputs()["mesh"] == unrefined
+    zone = np.zeros((4, 4), bool)
+    zone[1, 2] = True
+    refined = [replace(case, mesh=MeshOptions(refinement=ZoneRefinement(2, mask)))
+               for mask in (zone, zone.T)]
+    inputs = [json.loads(json.dumps(c.inputs()))["mesh"]["refinement"] for c in refined]
+    assert inputs[0]["level"] == 2 and inputs[0]["zone_cells"] == 1
+    assert inputs[0]["zone_sha256"] != inputs[1]["zone_sha256"]
+
+
+@pytest.mark.parametrize("level, zone", [(-1, np.ones((4, 4))), (1.5, np.ones((4, 4))),
+                                         (True, np.ones((4, 4))), (1, np.ones((4, 2))),
+                                         (1, [[True]])])
+def test_bad_zone_refinements_are_refused(level, zone):
+    from roughfriction.case import ZoneRefinement
+
+    with pytest.raises(InputError):
+        ZoneRefinement(level, zone)

@@ -265,6 +265,20 @@ def test_touching_height_carries_the_force_with_springs_at_the_nodes():
     assert np.sum(stiffness * np.maximum(tops - h, 0.0)) == pytest.approx(force)
 
 
+def central_differences(flat, u0, height, slide, step):
+    """dR_a/du_b of the sliding contact by central differences of step [m], shape
+    (N^2 grid nodes a, 3, displacement rows b, 3)."""
+    jacobian = np.zeros((flat.grid_size**2, 3) + u0.shape)
+    for b in range(len(u0)):
+        for c in range(3):
+            e = np.zeros_like(u0)
+            e[b, c] = step
+            forward = flat.respond(u0 + e, height, slide, friction=True).node_force
+            backward = flat.respond(u0 - e, height, slide, friction=True).node_force
+            jacobian[:, :, b, c] = (forward - backward) / (2 * step)
+    return jacobian
+
+
 def test_nodal_tangent_of_a_partial_contact_is_held_for_the_stiff_nodes_only():
     """One peak of an 8 x 8 grid in contact, sliding: node_blocks holds the nodes within two
     grid steps of it (no others), and every node's row of node_stiffness, those left out
@@ -282,15 +296,7 @@ def test_nodal_tangent_of_a_partial_contact_is_held_for_the_stiff_nodes_only():
     near = [((3 + di) % n) * n + (4 + dj) % n for di in range(-2, 3) for dj in range(-2, 3)]
     assert set(nodes) <= set(near) and 3 * n + 4 in nodes
 
-    step = 1e-5 * pressure / PENALTY  # [m]
-    jacobian = np.zeros((n * n, 3, n * n, 3))  # dR_a/du_b by central differences
-    for b in range(n * n):
-        for c in range(3):
-            e = np.zeros_like(u0)
-            e[b, c] = step
-            forward = flat.respond(u0 + e, height, flat_slide, friction=True).node_force
-            backward = flat.respond(u0 - e, height, flat_slide, friction=True).node_force
-            jacobian[:, :, b, c] = (forward - backward) / (2 * step)
+    jacobian = central_differences(flat, u0, height, flat_slide, 1e-5 * pressure / PENALTY)
     i, j = np.divmod(np.arange(n * n), n)
     neighbours = ((i[:, None] + NEIGHBOURS[:, 0]) % n) * n + (j[:, None] + NEIGHBOURS[:, 1]) % n
     tangent = np.zeros_like(jacobian)
@@ -319,3 +325,78 @@ def test_a_failed_step_returns_to_the_committed_history():
     flat.resume(start)
     assert flat.committed is start and not start.multiplier.any()
     assert not start.stick_offset.any() and start.anchored.all() and not start.slipped.any()
+
+
+# --- a surface of faces of varying width (the contact-adaptive block) --------------------------
+
+def adaptive_flat(level=1, own=4, tangential=0.1 * PENALTY, peak=None):
+    """A flat over the top faces of an adaptive block (``geometry.adaptive``): own x own cells
+    of side 2^level SPACING, own cell (1, 2) refined to SPACING; the free surface nodes' rows
+    are 0..m-1. ``peak``: a finest grid node raised by that height [m] (else flat)."""
+    from roughfriction.case import MeshOptions
+    from roughfriction.geometry.adaptive import adaptive_layout
+    from roughfriction.solver.contact import surface_faces
+
+    zone = np.zeros((own, own), bool)
+    zone[1, 2] = True
+    cells = adaptive_layout(own, SPACING * 2**level, level, zone, MeshOptions()).cells
+    n = cells.grid_size
+    faces = surface_faces(n, cells)
+    free = np.unique(faces.masters[faces.weights > 0.0])
+    heights = np.zeros(len(free))
+    if peak is not None:
+        heights[np.flatnonzero(free == peak[0])] = peak[1]
+    law = ContactLaw(PENALTY, tangential, TAU_C, RAMP)
+    return RigidFlat(MPI.COMM_SELF, np.arange(len(free)), np.column_stack(np.divmod(free, n)),
+                     n, heights, SPACING, law, 2, cells=cells), faces
+
+
+def test_faces_of_varying_width_tile_the_surface_and_carry_a_uniform_pressure():
+    flat, faces = adaptive_flat(level=2)
+    n = flat.grid_size
+    assert not faces.uniform and set(faces.width) == {1, 2, 4}
+    total = (n * SPACING) ** 2
+    assert flat.face_area.sum() == pytest.approx(total, rel=1e-12)
+    assert flat.node_area.sum() == pytest.approx(total, rel=1e-12)
+    assert flat.integrate(np.ones(len(flat.point_area))) == pytest.approx(total, rel=1e-12)
+    depth = 1e9 / PENALTY  # penetration of the flat [m]: p = 1 GPa everywhere
+    response = flat.respond(np.zeros((len(flat.nodes), 3)), -depth, 0.0, friction=False)
+    free = flat.node_free
+    np.testing.assert_allclose(response.node_pressure[free], 1e9, rtol=1e-9)
+    assert flat.normal_force(response) == pytest.approx(1e9 * total, rel=1e-9)
+    assert response.node_force[:, 2].sum() == pytest.approx(1e9 * total, rel=1e-9)
+    assert np.all(response.node_force[~free] == 0.0)  # no force where no free node is
+    assert flat.area_ratio(response.in_contact) == pytest.approx(1.0)
+    maps = flat.node_maps(response)
+    assert maps["contact"].sum() == free.sum() < n * n
+    np.testing.assert_allclose(maps["contact_fraction"], 1.0)
+    cell_face = faces.on_grid(np.arange(len(faces.width)))  # each finest cell in its face
+    for face, ((i0, j0), width) in enumerate(zip(faces.first, faces.width, strict=True)):
+        assert np.all(cell_face[i0:i0 + width, j0:j0 + width] == face)
+
+
+def test_the_tangent_of_faces_of_varying_width_matches_central_differences():
+    """A peak at a free node next to the refined cell, sliding: the nodal tangent on the
+    general coupling pattern (``RigidFlat.neighbours``) matches central differences of the
+    nodal residual, hanging corners tied to their masters."""
+    pressure = 1e9
+    n = 8
+    peak = (2 * n + 4, 2 * pressure / PENALTY)  # grid node (2, 4): a corner of the fine cells
+    flat, _ = adaptive_flat(level=1, peak=peak)
+    flat = anchored(flat)
+    m = len(flat.nodes)
+    rng = np.random.default_rng(4)
+    u0 = rng.normal(size=(m, 3)) * 1e-3 * pressure / PENALTY
+    height, slide = peak[1] - pressure / PENALTY, 2 * TAU_C / PENALTY
+    response = flat.respond(u0, height, slide, friction=True)
+    assert 0 < np.count_nonzero(response.in_contact) < response.in_contact.size
+    row_of = np.full(n * n, -1)
+    row_of[flat.owned_grid] = np.arange(m)
+    jacobian = central_differences(flat, u0, height, slide, 1e-5 * pressure / PENALTY)
+    tangent = np.zeros_like(jacobian)
+    for a in range(n * n):
+        for slot, b in enumerate(flat.neighbours[a]):
+            if b >= 0:
+                tangent[a, :, row_of[b], :] += response.node_stiffness[a, slot]
+    assert np.abs(jacobian).max() > 0.1 * PENALTY * SPACING**2
+    np.testing.assert_allclose(tangent, jacobian, rtol=1e-5, atol=1e-7 * PENALTY * SPACING**2)

@@ -1,0 +1,132 @@
+"""The contact-adaptive block in a run: the all-zone mask is today's uniformly refined run."""
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+from roughfriction.case import FemCase, Loading, MeshOptions, ZoneRefinement
+from roughfriction.errors import InputError
+from roughfriction.geometry.adaptive import cells_at_nodes
+from roughfriction.geometry.surface import Surface
+from roughfriction.studies.refinement import refined_case
+
+pytest.importorskip("dolfinx")
+from mpi4py import MPI  # noqa: E402
+from roughfriction.solver.block import build_block, mesh_nodes  # noqa: E402
+from roughfriction.solver.run import FemRun, next_level_case, run  # noqa: E402
+
+SPACING = 1e-6  # [m]
+LEVEL = 1
+#: Layers under which the level-1 adaptive block and the 2x structured block coincide: four
+#: layers h / 2 on top, then 2:1 levels of two layers each; the blend h deep (1 layer h, 2 of
+#: h / 2).
+ADAPTIVE_MESH = MeshOptions(fine_layers=4, blend_layers=1)
+UNIFORM_MESH = MeshOptions(fine_layers=4, blend_layers=2)
+
+
+def gentle_case(n=4, load=0.155, normal_only=False) -> FemCase:
+    """A small i.i.d. surface whose valleys need no more blend layers than the meshes take."""
+    heights = np.random.default_rng(11).normal(0.0, 0.08 * SPACING, (n, n))
+    return FemCase(Surface(heights, SPACING, "gentle"), Loading(load, normal_only))
+
+
+def all_zone(case: FemCase) -> FemCase:
+    """The case on the adaptive block refined everywhere to LEVEL."""
+    zone = np.ones((case.surface.n, case.surface.n), bool)
+    return replace(case, mesh=replace(ADAPTIVE_MESH, refinement=ZoneRefinement(LEVEL, zone)))
+
+
+def uniform(case: FemCase) -> FemCase:
+    """The case re-gridded 2^LEVEL times finer on today's structured block."""
+    return refined_case(replace(case, mesh=UNIFORM_MESH), 2**LEVEL)
+
+
+def test_the_all_zone_block_is_the_structured_block_of_the_refined_surface():
+    case = gentle_case()
+    adaptive, structured = all_zone(case), uniform(case)
+    assert structured.mesh.blend_layers == UNIFORM_MESH.blend_layers  # not deepened
+    a = mesh_nodes(adaptive.surface.heights, adaptive.surface.spacing, adaptive.mesh)
+    s = mesh_nodes(structured.surface.heights, structured.surface.spacing, structured.mesh)
+    assert (a.n, a.spacing) == (s.n, s.spacing)
+    np.testing.assert_allclose(a.layer_z, s.layer_z, rtol=0, atol=1e-18)
+    np.testing.assert_array_equal(a.layer_stride, s.layer_stride)
+    position = {tuple(node): p for p, node in enumerate(s.grid)}
+    same = np.array([position[tuple(node)] for node in a.grid])
+    np.testing.assert_allclose(a.coordinates, s.coordinates[same], rtol=0, atol=1e-18)
+    cells = {tuple(sorted(same[cell])) for cell in a.hexahedra}
+    assert cells == {tuple(sorted(cell)) for cell in s.hexahedra}
+
+
+def test_a_bad_zone_is_refused_on_every_rank_before_meshing():
+    case = gentle_case()
+    bad = replace(ADAPTIVE_MESH, refinement=ZoneRefinement(1, np.ones((3, 3), bool)))
+    with pytest.raises(InputError, match="refinement zone"):
+        build_block(case.surface.heights, SPACING, bad, MPI.COMM_SELF)
+
+
+@pytest.mark.fem
+def test_the_all_zone_run_reproduces_the_uniformly_refined_run():
+    case = gentle_case()
+    results = {name: run(make(case), MPI.COMM_SELF, progress=lambda record: None).result
+               for name, make in (("adaptive", all_zone), ("uniform", uniform))}
+    adaptive, structured = results["adaptive"], results["uniform"]
+    assert adaptive.converged and structured.converged
+    assert adaptive.sizes["reduced_dofs"] == structured.sizes["reduced_dofs"]
+    assert adaptive.sizes["refinement_level"] == LEVEL
+    assert structured.mu_s > 0.05
+    assert adaptive.mu_s == pytest.approx(structured.mu_s, rel=1e-10, abs=0)
+
+
+@pytest.mark.mpi
+@pytest.mark.fem
+def test_the_all_zone_run_reproduces_the_uniformly_refined_run_across_ranks():
+    """The same on 2 ranks: hanging-node ties and slab partition of the adaptive block."""
+    case = gentle_case(normal_only=True)
+    adaptive, structured = (run(make(case), MPI.COMM_WORLD, progress=lambda record: None).result
+                            for make in (all_zone, uniform))
+    assert adaptive.converged and structured.converged
+    assert adaptive.records[-1].area_ratio == pytest.approx(structured.records[-1].area_ratio,
+                                                            rel=1e-10, abs=0)
+
+
+def partial_zone_case() -> FemCase:
+    """The gentle 8 x 8 case, refined once around its 1x contact (one cell of margin)."""
+    case = replace(gentle_case(n=8, normal_only=True), mesh=ADAPTIVE_MESH)
+    contact = np.zeros((8, 8), bool)
+    contact[[2, 5], [3, 6]] = True
+    return replace(case, mesh=replace(case.mesh, refinement=ZoneRefinement(
+        1, cells_at_nodes(contact, 1))))
+
+
+def test_the_next_level_refines_the_cells_around_the_last_level_s_contact():
+    case = partial_zone_case()
+    maps = {"contact_normal": np.zeros((16, 16), bool), "contact_sliding": np.zeros((16, 16), bool)}
+    maps["contact_normal"][4, 6] = True
+    maps["contact_sliding"][5, 6] = True
+    finer = next_level_case(case, FemRun(None, maps, None, None), margin=0)
+    assert finer.mesh.refinement.level == 2
+    zone = finer.mesh.refinement.zone
+    assert zone.shape == (16, 16) and zone.sum() == 6 and zone[3:6, 5:7].all()
+    assert finer.surface is case.surface and finer.mesh.fine_layers == case.mesh.fine_layers
+
+
+@pytest.mark.fem
+def test_a_partial_zone_run_converges_with_fewer_dofs_than_the_uniform_one():
+    case = partial_zone_case()
+    adaptive = run(case, MPI.COMM_SELF, progress=lambda record: None)
+    structured = run(uniform(case), MPI.COMM_SELF, progress=lambda record: None)
+    assert adaptive.result.converged and structured.result.converged
+    assert adaptive.result.sizes["reduced_dofs"] < 0.8 * structured.result.sizes["reduced_dofs"]
+    assert adaptive.maps["contact_normal"].shape == (16, 16)
+    assert adaptive.maps["contact_normal"].any()
+
+
+@pytest.mark.mpi
+@pytest.mark.fem
+def test_a_partial_zone_run_is_the_same_on_two_ranks():
+    """Gathers of the free surface nodes, hanging corners and their masters across ranks."""
+    case = partial_zone_case()
+    serial = run(case, MPI.COMM_SELF, progress=lambda record: None).result.records[-1]
+    parallel = run(case, MPI.COMM_WORLD, progress=lambda record: None).result.records[-1]
+    assert parallel.area_ratio == pytest.approx(serial.area_ratio, rel=1e-10, abs=0)
+    assert parallel.flat_height == pytest.approx(serial.flat_height, rel=1e-8)
