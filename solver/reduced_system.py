@@ -26,6 +26,9 @@ from roughfriction.solver.solid import Solid
 #: part on the whole mesh (P^T K P with its pattern reused), below it on the yielding cells'
 #: couplings alone (whose cost grows with them; measured crossover 15-20 % at N = 64) [-].
 WHOLE_MESH_YIELDING = 0.15
+#: Contact rows whose missing columns :meth:`ReducedSystem._system_matrix` finds at once (bounds
+#: its working memory) [-].
+CONTACT_ROWS_AT_ONCE = 3 * 64
 #: The tightest relative Krylov tolerance asked of a linear solve [-].
 SMALLEST_TOLERANCE = 1e-10
 
@@ -62,10 +65,6 @@ class ReducedSystem:
                  options: SolverOptions):
         self.solid, self.reduction, self.flat = solid, reduction, flat
         self.comm = solid.V.mesh.comm
-        self._elastic_tangent = fem_petsc.create_matrix(solid.elastic_tangent_forms[0])
-        for form in solid.elastic_tangent_forms:
-            fem_petsc.assemble_matrix(self._elastic_tangent, form)
-        self._elastic_tangent.assemble()
         self._residual_full = fem_petsc.create_vector(solid.residual_forms[0])
         self._elastic_system = None  # P^T K_elastic P in the system's pattern, at first assembly
         self._tangent_full = None  # K_elastic + K_plastic on the whole mesh, once needed
@@ -143,10 +142,11 @@ class ReducedSystem:
         ``contact`` response is passed).
 
         The reduced elastic part is built once, in a matrix with the contact's pattern as well
-        (:meth:`_system_matrix`), and copied at each assembly. While few cells yield
-        (``WHOLE_MESH_YIELDING``), the plastic correction is assembled and reduced on their
-        couplings alone and added row by row; else the whole tangent is reduced on the whole
-        mesh. The blocks of the nodes that touch are added row by row.
+        (:meth:`_system_matrix`), and copied at each assembly. The plastic correction is
+        assembled and reduced on the couplings of the yielding cells alone and added row by
+        row while few cells yield (``WHOLE_MESH_YIELDING``), else in the whole mesh's pattern
+        (kept, with its P^T K P, and reused). The blocks of the nodes that touch are added row
+        by row.
         """
         if self.tangent is None:
             self._create_tangent()
@@ -166,8 +166,12 @@ class ReducedSystem:
             self._assemble_uncoupled_tangent(contact)
 
     def _create_tangent(self) -> None:
-        """The reduced elastic part in the system's pattern, and the tangent matrix."""
-        elastic = self.reduction.reduce_matrix(self._elastic_tangent)
+        """The reduced elastic part in the system's pattern, and the tangent matrix (the
+        full-mesh elastic tangent is freed as soon as it is reduced)."""
+        full = self._assemble_full(self.solid.elastic_tangent_forms)
+        full.assemble()
+        elastic = self.reduction.reduce_matrix(full)
+        full.destroy()
         self._elastic_system = self._system_matrix(elastic)
         self._elastic_system.axpy(1.0, elastic,
                                   structure=PETSc.Mat.Structure.SUBSET_NONZERO_PATTERN)
@@ -222,12 +226,14 @@ class ReducedSystem:
 
     def _reduce_whole_mesh(self, plastic) -> None:
         """Set the tangent to P^T (K_elastic + K_plastic) P, assembled and reduced on the whole
-        mesh (matrices kept, P^T K P's pattern reused)."""
+        mesh (the full matrix and its P^T K P kept, their patterns reused; the elastic part is
+        assembled again each time rather than kept in a second full-mesh matrix)."""
         if self._tangent_full is None:
-            self._tangent_full = self._elastic_tangent.duplicate(copy=True)
+            self._tangent_full = self._assemble_full(self.solid.elastic_tangent_forms)
         else:
-            self._elastic_tangent.copy(self._tangent_full,
-                                       structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
+            self._tangent_full.zeroEntries()
+            for form in self.solid.elastic_tangent_forms:
+                fem_petsc.assemble_matrix(self._tangent_full, form)
         fem_petsc.assemble_matrix(self._tangent_full, plastic)
         self._tangent_full.assemble()
         self._solid_tangent = self.reduction.reduce_matrix(self._tangent_full,
@@ -236,31 +242,58 @@ class ReducedSystem:
         self.tangent.axpy(1.0, self._solid_tangent,
                           structure=PETSc.Mat.Structure.SUBSET_NONZERO_PATTERN)
 
+    def _assemble_full(self, forms) -> PETSc.Mat:
+        """The bilinear ``forms`` summed on the whole mesh, unassembled (forms may follow)."""
+        matrix = fem_petsc.create_matrix(self.solid.elastic_tangent_forms[0])
+        for form in forms:
+            fem_petsc.assemble_matrix(matrix, form)
+        return matrix
+
     def _system_matrix(self, solid: PETSc.Mat) -> PETSc.Mat:
         """A zero matrix with the nonzeros of ``solid`` (P^T K P) and of the contact blocks: the
-        rows of each owned surface node gain the columns of its 25 neighbours."""
+        rows of each owned surface node gain the columns of its 25 neighbours. The missing
+        columns are inserted into ``solid``'s column array, so that the working memory beyond
+        the new matrix stays near that of one column array (4 bytes per nonzero)."""
         start, end = solid.getOwnershipRange()
-        row_pointer, columns, _ = solid.getValuesCSR()
-        rows = np.repeat(np.arange(end - start), np.diff(row_pointer))
-        contact_rows = self._contact_rows - start  # (m, 3)
+        row_pointer, columns = solid.getValuesCSR()[:2]  # (its values are dropped at once)
+        contact_rows = (self._contact_rows - start).ravel()  # (3 m,) local rows
         if np.any((contact_rows < 0) | (contact_rows >= end - start)):
             raise RuntimeError("a surface node's reduced rows are owned by another rank")
-        contact_columns = (3 * self._contact_columns[:, :, None] + np.arange(3)).reshape(
-            len(contact_rows), 1, -1)  # (m, 1, 75)
-        rows = np.concatenate([rows, np.broadcast_to(
-            contact_rows[:, :, None], (len(contact_rows), 3, contact_columns.shape[2])).ravel()])
-        columns = np.concatenate([columns, np.broadcast_to(
-            contact_columns, (len(contact_rows), 3, contact_columns.shape[2])).ravel()])
-        size = solid.getSize()[1]
-        pairs = np.unique(rows.astype(np.int64) * size + columns)
-        rows, columns = np.divmod(pairs, size)
-        row_pointer = np.concatenate([[0], np.cumsum(np.bincount(rows, minlength=end - start))])
-        matrix = PETSc.Mat().createAIJ(
-            solid.getSizes(), bsize=solid.getBlockSize(), comm=self.comm,
-            csr=(row_pointer.astype(PETSc.IntType), columns.astype(PETSc.IntType),
-                 np.zeros(len(columns))))
+        missing = [self._missing_contact_columns(row_pointer, columns, contact_rows,
+                                                 first, solid.getSize()[1])
+                   for first in range(0, len(contact_rows), CONTACT_ROWS_AT_ONCE)]
+        position, row, column = (np.concatenate(part) for part in zip(*missing, strict=True))
+        order = np.lexsort((column, row))
+        position, row, column = position[order], row[order], column[order]
+        columns = np.insert(columns, position, column.astype(columns.dtype))
+        counts = np.diff(row_pointer) + np.bincount(row, minlength=end - start)
+        row_pointer = np.concatenate([[0], np.cumsum(counts)]).astype(PETSc.IntType)
+        matrix = PETSc.Mat().createAIJ(solid.getSizes(), bsize=solid.getBlockSize(),
+                                       comm=self.comm, csr=(row_pointer, columns))
         matrix.setOption(PETSc.Mat.Option.NEW_NONZERO_ALLOCATION_ERR, True)
         return matrix
+
+    def _missing_contact_columns(self, row_pointer: np.ndarray, columns: np.ndarray,
+                                 contact_rows: np.ndarray, first_row: int, size: int) -> tuple:
+        """The contact blocks' columns that the CSR rows (``row_pointer``, ``columns``, sorted
+        columns in each row) of the local ``contact_rows`` (3 per owned surface node) from
+        ``first_row`` on (``CONTACT_ROWS_AT_ONCE`` of them) lack: (position in ``columns`` to
+        insert each before, local row, column), int32."""
+        chunk = np.arange(first_row, min(first_row + CONTACT_ROWS_AT_ONCE, len(contact_rows)))
+        contact_rows, num_rows = contact_rows[chunk], len(chunk)
+        node_columns = (3 * self._contact_columns[chunk // 3, :, None]
+                        + np.arange(3)).reshape(num_rows, -1)  # (rows, 75)
+        wanted = (np.arange(num_rows)[:, None] * size + node_columns).ravel()  # k size + column
+        lengths = (row_pointer[contact_rows + 1] - row_pointer[contact_rows]).astype(np.int64)
+        first = np.concatenate([[0], np.cumsum(lengths)[:-1]])  # of row k among the present
+        entry = np.repeat(row_pointer[contact_rows] - first, lengths) + np.arange(lengths.sum())
+        present = np.repeat(np.arange(num_rows) * size, lengths) + columns[entry]
+        missing = np.setdiff1d(wanted, present)  # sorted by k, then column
+        k, column = np.divmod(missing, size)
+        position = (row_pointer[contact_rows[k]] + np.searchsorted(present, missing)
+                    - first[k])
+        return (position.astype(np.int32), contact_rows[k].astype(np.int32),
+                column.astype(np.int32))
 
     # --- solves ---------------------------------------------------------------------------
 
@@ -317,8 +350,8 @@ class ReducedSystem:
 
     def destroy(self) -> None:
         """Free the PETSc objects (matrices, vectors, the KSP); unusable afterwards."""
-        for item in (self._elastic_tangent, self._elastic_system, self._tangent_full,
-                     self._solid_tangent, self._residual_full, self.tangent,
+        for item in (self._elastic_system, self._tangent_full, self._solid_tangent,
+                     self._residual_full, self.tangent,
                      self._uncoupled_tangent, self.residual, self.height_column, self.force_row,
                      self.x1, self.x2, self._near_nullspace):
             if item is not None:

@@ -226,8 +226,10 @@ def memory_objects(equilibrium) -> dict:
 MATRICES = (
     ("full elastic K", "_elastic_tangent"),
     ("full tangent K", "_tangent_full"),
+    ("full plastic K", "_plastic_full"),
     ("reduced elastic PtKP", "_elastic_system"),
     ("reduced solid PtKP", "_solid_tangent"),
+    ("reduced plastic PtKP", "_plastic_reduced"),
     ("reduced tangent", "tangent"),
     ("reduced uncoupled tangent", "_uncoupled_tangent"),
 )
@@ -257,7 +259,7 @@ MARKS = (
     ("mesh", "roughfriction.solver.run", None, "build_block"),
     ("forms and spaces", "roughfriction.solver.solid", "Solid", "__init__"),
     ("reduction P", "roughfriction.solver.periodic", "PeriodicReduction", "__init__"),
-    ("full elastic K", "roughfriction.solver.reduced_system", "ReducedSystem", "__init__"),
+    ("system set-up", "roughfriction.solver.reduced_system", "ReducedSystem", "__init__"),
     ("reduced PtKP", "roughfriction.solver.reduced_system", "ReducedSystem", "_create_tangent"),
     ("first tangent", "roughfriction.solver.reduced_system", "ReducedSystem",
      "assemble_tangent"),

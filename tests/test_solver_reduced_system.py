@@ -61,7 +61,9 @@ def test_the_tangent_is_the_reduced_solid_tangent_plus_the_contact_blocks(monkey
 
     def checked(self, contact):
         assemble_tangent(self, contact)
-        full = self._elastic_tangent.duplicate(copy=True)
+        full = fem_petsc.create_matrix(self.solid.elastic_tangent_forms[0])
+        for form in self.solid.elastic_tangent_forms:
+            fem_petsc.assemble_matrix(full, form)
         plastic = self.solid.plastic_tangent_form()
         if plastic is not None:
             plastic_iterations[0] += 1
@@ -88,3 +90,69 @@ def test_the_tangent_is_the_reduced_solid_tangent_plus_the_contact_blocks(monkey
     assert result.converged, result.message
     assert plastic_iterations[0] > 10 and len(differences) > 20
     assert max(differences) < 1e-13, f"the tangent differs by {max(differences):.2e} (Frobenius)"
+
+
+def _reduced_system(n: int = 16) -> ReducedSystem:
+    """The reduced system of a random n x n surface (one rank's share), before any assembly."""
+    from roughfriction.solver.block import build_block
+    from roughfriction.solver.equilibrium import Equilibrium
+    from roughfriction.solver.periodic import PeriodicReduction
+    from roughfriction.solver.run import surface_contact, with_blend_layers_needed
+    from roughfriction.solver.solid import Solid
+
+    heights = np.random.default_rng(7).normal(0.0, 1e-7, (n, n))
+    case = with_blend_layers_needed(FemCase(Surface(heights, 1e-6, "test"), Loading(0.5)),
+                                    lambda record: None)
+    block = build_block(heights, 1e-6, case.mesh, MPI.COMM_WORLD)
+    solid = Solid(block.mesh, case.material)
+    reduction = PeriodicReduction(solid.V, block)
+    flat = surface_contact(solid, block, case)
+    return Equilibrium(solid, reduction, flat, case.solver, block.spacing).system
+
+
+def _union_pattern(system: ReducedSystem, solid: PETSc.Mat) -> tuple:
+    """(row pointer, columns) of the nonzeros of ``solid`` and of every owned surface node's
+    rows with the 3 x 75 columns of its 25 neighbours, by sorting all (row, column) pairs."""
+    start, end = solid.getOwnershipRange()
+    row_pointer, columns, _ = solid.getValuesCSR()
+    rows = [np.repeat(np.arange(end - start), np.diff(row_pointer))]
+    cols = [columns.astype(np.int64)]
+    node_columns = (3 * system._contact_columns[:, :, None] + np.arange(3)).reshape(
+        len(system._contact_rows), -1)
+    for component in range(3):
+        rows.append(np.repeat(system._contact_rows[:, component] - start,
+                              node_columns.shape[1]))
+        cols.append(node_columns.ravel())
+    size = solid.getSize()[1]
+    pairs = np.unique(np.concatenate(rows).astype(np.int64) * size + np.concatenate(cols))
+    rows, columns = np.divmod(pairs, size)
+    return np.concatenate([[0], np.cumsum(np.bincount(rows, minlength=end - start))]), columns
+
+
+def test_the_system_matrix_has_the_solid_and_contact_pattern_within_a_memory_budget():
+    """The system matrix of a 16 x 16 surface has exactly the nonzeros of P^T K_elastic P and
+    of the contact blocks of every surface node (a union of all (row, column) pairs as the
+    reference), and building it takes at most 24 bytes of NumPy working memory per nonzero
+    (the matrix itself takes 12 in PETSc): sorting all (row, column) pairs as 64-bit keys
+    takes several times that."""
+    import tracemalloc
+
+    system = _reduced_system()
+    full = system._assemble_full(system.solid.elastic_tangent_forms)
+    full.assemble()
+    elastic = system.reduction.reduce_matrix(full)
+    tracemalloc.start()
+    try:
+        matrix = system._system_matrix(elastic)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    row_pointer, columns, _ = matrix.getValuesCSR()
+    reference_pointer, reference_columns = _union_pattern(system, elastic)
+    np.testing.assert_array_equal(row_pointer, reference_pointer)
+    np.testing.assert_array_equal(columns, reference_columns)
+    nonzeros = len(columns)
+    assert peak <= 24 * nonzeros, f"{peak / nonzeros:.1f} bytes per nonzero"
+    for item in (full, elastic, matrix):
+        item.destroy()
+    system.destroy()
