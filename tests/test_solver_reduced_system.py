@@ -156,3 +156,30 @@ def test_the_system_matrix_has_the_solid_and_contact_pattern_within_a_memory_bud
     for item in (full, elastic, matrix):
         item.destroy()
     system.destroy()
+
+
+def test_no_full_mesh_matrix_is_kept_while_few_cells_yield(monkeypatch):
+    """Through a random 16 x 16 surface's preload and sliding with the plastic correction
+    reduced on its own cells, the system keeps no matrix of the full mesh's size (the elastic
+    K is freed once reduced: it is not stored next to its P^T K P), and its reduced matrices
+    are the elastic part and the tangent (and, once the tangent is not symmetric, the
+    uncoupled tangent)."""
+    monkeypatch.setattr(reduced_system_module, "WHOLE_MESH_YIELDING", 1.0)
+    assemble_tangent = ReducedSystem.assemble_tangent
+    held = []
+
+    def noted(self, contact):
+        assemble_tangent(self, contact)
+        full_size = self.reduction.P.getSize()[0]
+        matrices = [item for name, item in vars(self).items()
+                    if isinstance(item, PETSc.Mat) and name != "_uncoupled_tangent"]
+        held.append((sum(m.getSize()[0] == full_size for m in matrices), len(matrices)))
+
+    monkeypatch.setattr(ReducedSystem, "assemble_tangent", noted)
+    heights = np.random.default_rng(7).normal(0.0, 1e-7, (16, 16))
+    case = FemCase(Surface(heights, 1e-6, "test"), Loading(0.5))
+    result = run(case, MPI.COMM_WORLD, progress=lambda record: None).result
+    assert result.converged, result.message
+    assert len(held) > 20
+    assert max(full for full, _ in held) == 0, "a full-mesh matrix is kept"
+    assert max(reduced for _, reduced in held) <= 2
