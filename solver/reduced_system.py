@@ -26,9 +26,6 @@ from roughfriction.solver.solid import Solid
 #: part on the whole mesh (P^T K P with its pattern reused), below it on the yielding cells'
 #: couplings alone (whose cost grows with them; measured crossover 15-20 % at N = 64) [-].
 WHOLE_MESH_YIELDING = 0.15
-#: Contact rows whose missing columns :meth:`ReducedSystem._system_matrix` finds at once (bounds
-#: its working memory) [-].
-CONTACT_ROWS_AT_ONCE = 3 * 64
 #: The tightest relative Krylov tolerance asked of a linear solve [-].
 SMALLEST_TOLERANCE = 1e-10
 
@@ -173,8 +170,6 @@ class ReducedSystem:
         elastic = self.reduction.reduce_matrix(full)
         full.destroy()
         self._elastic_system = self._system_matrix(elastic)
-        self._elastic_system.axpy(1.0, elastic,
-                                  structure=PETSc.Mat.Structure.SUBSET_NONZERO_PATTERN)
         elastic.destroy()
         self.tangent = self._elastic_system.duplicate(copy=False)
         if self._near_nullspace is not None:
@@ -250,50 +245,31 @@ class ReducedSystem:
         return matrix
 
     def _system_matrix(self, solid: PETSc.Mat) -> PETSc.Mat:
-        """A zero matrix with the nonzeros of ``solid`` (P^T K P) and of the contact blocks: the
-        rows of each owned surface node gain the columns of its 25 neighbours. The missing
-        columns are inserted into ``solid``'s column array, so that the working memory beyond
-        the new matrix stays near that of one column array (4 bytes per nonzero)."""
+        """``solid`` (P^T K P) in a matrix with the nonzeros of the contact blocks as well: the
+        rows of each owned surface node gain the columns of its 25 neighbours. PETSc forms the
+        union (a sum with a zero matrix of the contact pattern), so no copy of the pattern is
+        made outside the new matrix."""
         start, end = solid.getOwnershipRange()
-        row_pointer, columns = solid.getValuesCSR()[:2]  # (its values are dropped at once)
-        contact_rows = (self._contact_rows - start).ravel()  # (3 m,) local rows
+        contact_rows = self._contact_rows - start  # (m, 3) local rows
         if np.any((contact_rows < 0) | (contact_rows >= end - start)):
             raise RuntimeError("a surface node's reduced rows are owned by another rank")
-        missing = [self._missing_contact_columns(row_pointer, columns, contact_rows,
-                                                 first, solid.getSize()[1])
-                   for first in range(0, len(contact_rows), CONTACT_ROWS_AT_ONCE)]
-        position, row, column = (np.concatenate(part) for part in zip(*missing, strict=True))
-        order = np.lexsort((column, row))
-        position, row, column = position[order], row[order], column[order]
-        columns = np.insert(columns, position, column.astype(columns.dtype))
-        counts = np.diff(row_pointer) + np.bincount(row, minlength=end - start)
-        row_pointer = np.concatenate([[0], np.cumsum(counts)]).astype(PETSc.IntType)
+        column_start, column_end = solid.getOwnershipRangeColumn()
+        columns = (3 * self._contact_columns[:, :, None] + np.arange(3)).reshape(
+            len(contact_rows), -1)  # (m, 75)
+        diagonal = np.zeros(end - start, dtype=PETSc.IntType)  # nonzeros per local row
+        diagonal[contact_rows] = np.count_nonzero(
+            (columns >= column_start) & (columns < column_end), axis=1)[:, None]
+        off_diagonal = np.zeros(end - start, dtype=PETSc.IntType)
+        off_diagonal[contact_rows] = columns.shape[1] - diagonal[contact_rows]
         matrix = PETSc.Mat().createAIJ(solid.getSizes(), bsize=solid.getBlockSize(),
-                                       comm=self.comm, csr=(row_pointer, columns))
+                                       nnz=(diagonal, off_diagonal), comm=self.comm)
+        matrix.setValuesRCV(self._contact_rows.astype(PETSc.IntType),
+                            columns.astype(PETSc.IntType),
+                            np.zeros((len(contact_rows), 3 * columns.shape[1])))
+        matrix.assemble()
+        matrix.axpy(1.0, solid, structure=PETSc.Mat.Structure.DIFFERENT_NONZERO_PATTERN)
         matrix.setOption(PETSc.Mat.Option.NEW_NONZERO_ALLOCATION_ERR, True)
         return matrix
-
-    def _missing_contact_columns(self, row_pointer: np.ndarray, columns: np.ndarray,
-                                 contact_rows: np.ndarray, first_row: int, size: int) -> tuple:
-        """The contact blocks' columns that the CSR rows (``row_pointer``, ``columns``, sorted
-        columns in each row) of the local ``contact_rows`` (3 per owned surface node) from
-        ``first_row`` on (``CONTACT_ROWS_AT_ONCE`` of them) lack: (position in ``columns`` to
-        insert each before, local row, column), int32."""
-        chunk = np.arange(first_row, min(first_row + CONTACT_ROWS_AT_ONCE, len(contact_rows)))
-        contact_rows, num_rows = contact_rows[chunk], len(chunk)
-        node_columns = (3 * self._contact_columns[chunk // 3, :, None]
-                        + np.arange(3)).reshape(num_rows, -1)  # (rows, 75)
-        wanted = (np.arange(num_rows)[:, None] * size + node_columns).ravel()  # k size + column
-        lengths = (row_pointer[contact_rows + 1] - row_pointer[contact_rows]).astype(np.int64)
-        first = np.concatenate([[0], np.cumsum(lengths)[:-1]])  # of row k among the present
-        entry = np.repeat(row_pointer[contact_rows] - first, lengths) + np.arange(lengths.sum())
-        present = np.repeat(np.arange(num_rows) * size, lengths) + columns[entry]
-        missing = np.setdiff1d(wanted, present)  # sorted by k, then column
-        k, column = np.divmod(missing, size)
-        position = (row_pointer[contact_rows[k]] + np.searchsorted(present, missing)
-                    - first[k])
-        return (position.astype(np.int32), contact_rows[k].astype(np.int32),
-                column.astype(np.int32))
 
     # --- solves ---------------------------------------------------------------------------
 
