@@ -56,6 +56,13 @@ class Solid:
         Linear elastic solid (no yield check).
     integration : {"selective", "full"}
         Pressure at 1 point (SRI) or at the 2 x 2 x 2 points.
+
+    Attributes
+    ----------
+    committed, trial_state : J2State
+        Plastic history of the last converged step and of the last stress update.
+    yielding : numpy.ndarray
+        Gauss points on the yield surface in the last stress update, bool.
     """
 
     def __init__(self, mesh, material: Material, elastic: bool = False,
@@ -139,7 +146,7 @@ class Solid:
     def yielding_cells(self) -> np.ndarray:
         """Owned cells with a yielding Gauss point in the last stress update (int32)."""
         if self._yielding_cells is None:
-            yielding = self.response.yielding.reshape(self.num_cells, self.num_points).any(axis=1)
+            yielding = self.yielding.reshape(self.num_cells, self.num_points).any(axis=1)
             self._yielding_cells = np.flatnonzero(yielding).astype(np.int32)
         return self._yielding_cells
 
@@ -154,22 +161,25 @@ class Solid:
 
     def update_stress(self) -> J2Response:
         """Return-map the current displacement from the committed state; fill the quadrature
-        functions the forms read. The result is a trial: :meth:`commit` accepts it."""
+        functions the forms read. The result is a trial: :meth:`commit` accepts it. Of the
+        response returned, the solid keeps the trial history and the yielding points alone
+        (stress and tangent factors live in the quadrature functions)."""
         strain_deviator = self._strain_deviator.eval(self._cells).reshape(-1, 3, 3)
-        self._set_response(radial_return(strain_deviator, self.committed, self.material,
-                                         self.elastic))
-        return self.response
+        response = radial_return(strain_deviator, self.committed, self.material, self.elastic)
+        self._set_response(response)
+        return response
 
     def _set_response(self, response: J2Response) -> None:
-        """Make ``response`` the current stress update: quadrature functions filled, the
-        yielding cells to be counted anew."""
-        self.response = response
+        """Make ``response`` the current stress update: quadrature functions filled, its trial
+        history and yielding points kept, the yielding cells to be counted anew."""
+        self.trial_state = response.state
+        self.yielding = response.yielding
         self._yielding_cells = self._yielding_fraction = None
         self._write_quadrature(response)
 
     def commit(self) -> None:
         """Accept the last stress update as the history of a converged step."""
-        self.committed = self.response.state
+        self.committed = self.trial_state
 
     def _write_quadrature(self, response: J2Response) -> None:
         """Copy stress, tangent factors and the yielded flag into the quadrature functions."""
@@ -190,10 +200,11 @@ class Solid:
     def cell_von_mises(self) -> np.ndarray:
         """Von Mises stress averaged over each owned cell's Gauss points [Pa] (deviator only:
         q does not depend on pressure)."""
-        q = von_mises(self.response.stress_deviator)
+        stress_deviator = self.stress_deviator.x.array.reshape(-1, 9)[self._tensor_dofs]
+        q = von_mises(stress_deviator.reshape(-1, 3, 3))
         return q.reshape(self.num_cells, self.num_points).mean(axis=1)
 
     def cell_plastic_strain(self) -> np.ndarray:
         """Equivalent plastic strain averaged over each owned cell's Gauss points [-]."""
-        p = self.response.state.equivalent_plastic_strain
+        p = self.trial_state.equivalent_plastic_strain
         return p.reshape(self.num_cells, self.num_points).mean(axis=1)

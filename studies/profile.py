@@ -216,7 +216,8 @@ def memory_objects(equilibrium) -> dict:
     quadrature = (solid.stress_deviator, solid.flow_direction, solid.beta, solid.gamma,
                   solid.yielded)
     objects["quadrature functions"] = sum(f.x.array.nbytes for f in quadrature)
-    objects["quadrature state"] = _arrays_bytes(solid.response, solid.committed)
+    objects["quadrature state"] = _arrays_bytes(solid.trial_state, solid.yielding,
+                                                solid.committed)
     objects["displacement field"] = solid.displacement.x.array.nbytes
     objects["contact surface arrays"] = _arrays_bytes(*vars(flat).values())
     return objects
