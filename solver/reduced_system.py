@@ -12,6 +12,9 @@ where a slipping point's shear cap follows its pressure, see :mod:`solver.contac
 
 from __future__ import annotations
 
+import ctypes
+import functools
+
 import numpy as np
 from dolfinx.fem import petsc as fem_petsc
 from mpi4py import MPI
@@ -28,6 +31,22 @@ from roughfriction.solver.solid import Solid
 WHOLE_MESH_YIELDING = 0.15
 #: The tightest relative Krylov tolerance asked of a linear solve [-].
 SMALLEST_TOLERANCE = 1e-10
+
+
+@functools.cache
+def _petsc_function(name: str):
+    """The C function ``name`` of the PETSc library petsc4py is linked to (ctypes), or None."""
+    return getattr(ctypes.CDLL(PETSc.__file__), name, None)
+
+
+def free_product_data(matrix: PETSc.Mat) -> None:
+    """Drop what PETSc keeps with the result of a matrix product (P^T K P) to repeat it: its
+    intermediate products and its references to the factors, so that a factor the caller
+    destroys is freed at once (MatProductClear, which petsc4py does not wrap; a no-op where
+    the library lacks it)."""
+    clear = _petsc_function("MatProductClear")
+    if clear is not None and clear(ctypes.c_void_p(matrix.handle)) != 0:
+        raise RuntimeError("MatProductClear failed")
 
 
 class ReducedSystem:
@@ -168,6 +187,7 @@ class ReducedSystem:
         full = self._assemble_full(self.solid.elastic_tangent_forms)
         full.assemble()
         elastic = self.reduction.reduce_matrix(full)
+        free_product_data(elastic)  # else PETSc keeps the full matrix alive with it
         full.destroy()
         self._elastic_system = self._system_matrix(elastic)
         elastic.destroy()

@@ -185,3 +185,19 @@ def test_no_full_mesh_matrix_is_kept_while_few_cells_yield(monkeypatch):
     assert len(held) > 20
     assert max(full for full, _ in held) == 0, "a full-mesh matrix is kept"
     assert max(reduced for _, reduced in held) <= 2
+
+
+def test_a_reduced_matrix_freed_of_its_product_data_keeps_no_full_matrix_alive():
+    """PETSc's P^T K P holds a reference to K (to repeat the product); once its product data
+    are freed (as the system does before building its matrices), destroying K frees it."""
+    system = _reduced_system(8)
+    full = system._assemble_full(system.solid.elastic_tangent_forms)
+    full.assemble()
+    elastic = system.reduction.reduce_matrix(full)
+    assert full.getRefCount() == 2
+    reduced_system_module.free_product_data(elastic)
+    assert full.getRefCount() == 1
+    assert elastic.norm() > 0.0
+    for item in (full, elastic):
+        item.destroy()
+    system.destroy()
