@@ -30,7 +30,7 @@ from roughfriction.solver.plasticity import J2Response, J2State, radial_return, 
 #: Quadrature degree of the 2 x 2 x 2 Gauss rule on hexahedra (basix: degree 2 and 3 give it).
 DEVIATORIC_DEGREE = 2
 #: Cells whose stress :meth:`Solid.update_stress` return-maps at once [-].
-CELLS_AT_ONCE = 4096
+CELLS_AT_ONCE = 1024
 #: Quadrature degree of the 1-point (cell-centre) rule.
 VOLUMETRIC_DEGREE = {"selective": 1, "full": DEVIATORIC_DEGREE}
 
