@@ -15,6 +15,14 @@ from roughfriction.solver.run import run  # noqa: E402
 pytestmark = pytest.mark.fem
 
 
+def _run_random_surface() -> None:
+    """Preload and slide a random 16 x 16 surface at F* = 0.5 (to convergence)."""
+    heights = np.random.default_rng(7).normal(0.0, 1e-7, (16, 16))
+    case = FemCase(Surface(heights, 1e-6, "test"), Loading(0.5))
+    result = run(case, MPI.COMM_WORLD, progress=lambda record: None).result
+    assert result.converged, result.message
+
+
 def test_the_bordered_newton_direction_meets_its_krylov_tolerance(monkeypatch):
     """At every Newton iteration of a random 16 x 16 surface's preload and sliding, the
     direction (du, dh) of the bordered system leaves a linear residual ||K du + b dh + R|| of at
@@ -36,10 +44,7 @@ def test_the_bordered_newton_direction_meets_its_krylov_tolerance(monkeypatch):
         return height_increment, krylov
 
     monkeypatch.setattr(ReducedSystem, "bordered_solve", checked)
-    heights = np.random.default_rng(7).normal(0.0, 1e-7, (16, 16))
-    case = FemCase(Surface(heights, 1e-6, "test"), Loading(0.5))
-    result = run(case, MPI.COMM_WORLD, progress=lambda record: None).result
-    assert result.converged, result.message
+    _run_random_surface()
     assert len(ratios) > 20
     assert max(ratios) <= 2.0, f"linear residual {max(ratios):.3g} x the forcing term"
 
@@ -83,10 +88,7 @@ def test_the_tangent_is_the_reduced_solid_tangent_plus_the_contact_blocks(monkey
             matrix.destroy()
 
     monkeypatch.setattr(ReducedSystem, "assemble_tangent", checked)
-    heights = np.random.default_rng(7).normal(0.0, 1e-7, (16, 16))
-    case = FemCase(Surface(heights, 1e-6, "test"), Loading(0.5))
-    result = run(case, MPI.COMM_WORLD, progress=lambda record: None).result
-    assert result.converged, result.message
+    _run_random_surface()
     assert plastic_iterations[0] > 10 and len(differences) > 20
     assert max(differences) < 1e-13, f"the tangent differs by {max(differences):.2e} (Frobenius)"
 
@@ -178,10 +180,7 @@ def test_no_full_mesh_matrix_is_kept_while_few_cells_yield(monkeypatch):
         held.append((sum(m.getSize()[0] == full_size for m in matrices), len(matrices)))
 
     monkeypatch.setattr(ReducedSystem, "assemble_tangent", noted)
-    heights = np.random.default_rng(7).normal(0.0, 1e-7, (16, 16))
-    case = FemCase(Surface(heights, 1e-6, "test"), Loading(0.5))
-    result = run(case, MPI.COMM_WORLD, progress=lambda record: None).result
-    assert result.converged, result.message
+    _run_random_surface()
     assert len(held) > 20
     assert max(full for full, _ in held) == 0, "a full-mesh matrix is kept"
     assert max(reduced for _, reduced in held) <= 2
