@@ -225,12 +225,9 @@ def memory_objects(equilibrium) -> dict:
 
 #: (name in the breakdown, attribute of ReducedSystem) of the matrices it may hold.
 MATRICES = (
-    ("full elastic K", "_elastic_tangent"),
     ("full tangent K", "_tangent_full"),
-    ("full plastic K", "_plastic_full"),
     ("reduced elastic PtKP", "_elastic_system"),
     ("reduced solid PtKP", "_solid_tangent"),
-    ("reduced plastic PtKP", "_plastic_reduced"),
     ("reduced tangent", "tangent"),
     ("reduced uncoupled tangent", "_uncoupled_tangent"),
 )
