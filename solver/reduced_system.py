@@ -12,6 +12,9 @@ where a slipping point's shear cap follows its pressure, see :mod:`solver.contac
 
 from __future__ import annotations
 
+import ctypes
+import functools
+
 import numpy as np
 from dolfinx.fem import petsc as fem_petsc
 from mpi4py import MPI
@@ -28,6 +31,22 @@ from roughfriction.solver.solid import Solid
 WHOLE_MESH_YIELDING = 0.15
 #: The tightest relative Krylov tolerance asked of a linear solve [-].
 SMALLEST_TOLERANCE = 1e-10
+
+
+@functools.cache
+def _petsc_function(name: str):
+    """The C function ``name`` of the PETSc library petsc4py is linked to (ctypes), or None."""
+    return getattr(ctypes.CDLL(PETSc.__file__), name, None)
+
+
+def free_product_data(matrix: PETSc.Mat) -> None:
+    """Drop what PETSc keeps with the result of a matrix product (P^T K P) to repeat it: its
+    intermediate products and its references to the factors, so that a factor the caller
+    destroys is freed at once (MatProductClear, which petsc4py does not wrap; a no-op where
+    the library lacks it)."""
+    clear = _petsc_function("MatProductClear")
+    if clear is not None and clear(ctypes.c_void_p(matrix.handle)) != 0:
+        raise RuntimeError("MatProductClear failed")
 
 
 class ReducedSystem:
@@ -62,10 +81,6 @@ class ReducedSystem:
                  options: SolverOptions):
         self.solid, self.reduction, self.flat = solid, reduction, flat
         self.comm = solid.V.mesh.comm
-        self._elastic_tangent = fem_petsc.create_matrix(solid.elastic_tangent_forms[0])
-        for form in solid.elastic_tangent_forms:
-            fem_petsc.assemble_matrix(self._elastic_tangent, form)
-        self._elastic_tangent.assemble()
         self._residual_full = fem_petsc.create_vector(solid.residual_forms[0])
         self._elastic_system = None  # P^T K_elastic P in the system's pattern, at first assembly
         self._tangent_full = None  # K_elastic + K_plastic on the whole mesh, once needed
@@ -142,10 +157,11 @@ class ReducedSystem:
         ``contact`` response is passed).
 
         The reduced elastic part is built once, in a matrix with the contact's pattern as well
-        (:meth:`_system_matrix`), and copied at each assembly. While few cells yield
-        (``WHOLE_MESH_YIELDING``), the plastic correction is assembled and reduced on their
-        couplings alone and added row by row; else the whole tangent is reduced on the whole
-        mesh. The blocks of the nodes that touch are added row by row.
+        (:meth:`_system_matrix`), and copied at each assembly. The plastic correction is
+        assembled and reduced on the couplings of the yielding cells alone and added row by
+        row while few cells yield (``WHOLE_MESH_YIELDING``), else in the whole mesh's pattern
+        (kept, with its P^T K P, and reused). The blocks of the nodes that touch are added row
+        by row.
         """
         if self.tangent is None:
             self._create_tangent()
@@ -165,11 +181,14 @@ class ReducedSystem:
             self._assemble_uncoupled_tangent(contact)
 
     def _create_tangent(self) -> None:
-        """The reduced elastic part in the system's pattern, and the tangent matrix."""
-        elastic = self.reduction.reduce_matrix(self._elastic_tangent)
+        """The reduced elastic part in the system's pattern, and the tangent matrix (the
+        full-mesh elastic tangent is freed as soon as it is reduced)."""
+        full = self._assemble_full(self.solid.elastic_tangent_forms)
+        full.assemble()
+        elastic = self.reduction.reduce_matrix(full)
+        free_product_data(elastic)  # else PETSc keeps the full matrix alive with it
+        full.destroy()
         self._elastic_system = self._system_matrix(elastic)
-        self._elastic_system.axpy(1.0, elastic,
-                                  structure=PETSc.Mat.Structure.SUBSET_NONZERO_PATTERN)
         elastic.destroy()
         self.tangent = self._elastic_system.duplicate(copy=False)
         if self._near_nullspace is not None:
@@ -221,12 +240,14 @@ class ReducedSystem:
 
     def _reduce_whole_mesh(self, plastic) -> None:
         """Set the tangent to P^T (K_elastic + K_plastic) P, assembled and reduced on the whole
-        mesh (matrices kept, P^T K P's pattern reused)."""
+        mesh (the full matrix and its P^T K P kept, their patterns reused; the elastic part is
+        assembled again each time rather than kept in a second full-mesh matrix)."""
         if self._tangent_full is None:
-            self._tangent_full = self._elastic_tangent.duplicate(copy=True)
+            self._tangent_full = self._assemble_full(self.solid.elastic_tangent_forms)
         else:
-            self._elastic_tangent.copy(self._tangent_full,
-                                       structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
+            self._tangent_full.zeroEntries()
+            for form in self.solid.elastic_tangent_forms:
+                fem_petsc.assemble_matrix(self._tangent_full, form)
         fem_petsc.assemble_matrix(self._tangent_full, plastic)
         self._tangent_full.assemble()
         self._solid_tangent = self.reduction.reduce_matrix(self._tangent_full,
@@ -235,30 +256,38 @@ class ReducedSystem:
         self.tangent.axpy(1.0, self._solid_tangent,
                           structure=PETSc.Mat.Structure.SUBSET_NONZERO_PATTERN)
 
+    def _assemble_full(self, forms) -> PETSc.Mat:
+        """The bilinear ``forms`` summed on the whole mesh, unassembled (forms may follow)."""
+        matrix = fem_petsc.create_matrix(self.solid.elastic_tangent_forms[0])
+        for form in forms:
+            fem_petsc.assemble_matrix(matrix, form)
+        return matrix
+
     def _system_matrix(self, solid: PETSc.Mat) -> PETSc.Mat:
-        """A zero matrix with the nonzeros of ``solid`` (P^T K P) and of the contact blocks: the
-        rows of each owned surface node gain the columns of its 25 neighbours."""
+        """``solid`` (P^T K P) in a matrix with the nonzeros of the contact blocks as well: the
+        rows of each owned surface node gain the columns of its 25 neighbours. PETSc forms the
+        union (a sum with a zero matrix of the contact pattern), so no copy of the pattern is
+        made outside the new matrix."""
         start, end = solid.getOwnershipRange()
-        row_pointer, columns, _ = solid.getValuesCSR()
-        rows = np.repeat(np.arange(end - start), np.diff(row_pointer))
-        contact_rows = self._contact_rows - start  # (m, 3)
+        contact_rows = self._contact_rows - start  # (m, 3) local rows
         if np.any((contact_rows < 0) | (contact_rows >= end - start)):
             raise RuntimeError("a surface node's reduced rows are owned by another rank")
-        contact_columns = (3 * self._contact_columns[:, :, None] + np.arange(3)).reshape(
-            len(contact_rows), 1, -1)  # (m, 1, 75)
-        rows = np.concatenate([rows, np.broadcast_to(
-            contact_rows[:, :, None], (len(contact_rows), 3, contact_columns.shape[2])).ravel()])
-        columns = np.concatenate([columns, np.broadcast_to(
-            contact_columns, (len(contact_rows), 3, contact_columns.shape[2])).ravel()])
-        size = solid.getSize()[1]
-        kept = columns >= 0  # not the padding of a contact row
-        pairs = np.unique(rows[kept].astype(np.int64) * size + columns[kept])
-        rows, columns = np.divmod(pairs, size)
-        row_pointer = np.concatenate([[0], np.cumsum(np.bincount(rows, minlength=end - start))])
-        matrix = PETSc.Mat().createAIJ(
-            solid.getSizes(), bsize=solid.getBlockSize(), comm=self.comm,
-            csr=(row_pointer.astype(PETSc.IntType), columns.astype(PETSc.IntType),
-                 np.zeros(len(columns))))
+        column_start, column_end = solid.getOwnershipRangeColumn()
+        columns = (3 * self._contact_columns[:, :, None] + np.arange(3)).reshape(
+            len(contact_rows), -1)  # (m, 3 x widest row); negative: padding, ignored by PETSc
+        padded = self._contact_columns[:, :, None].repeat(3, axis=2).reshape(columns.shape) < 0
+        local = ~padded & (columns >= column_start) & (columns < column_end)
+        diagonal = np.zeros(end - start, dtype=PETSc.IntType)  # nonzeros per local row
+        diagonal[contact_rows] = np.count_nonzero(local, axis=1)[:, None]
+        off_diagonal = np.zeros(end - start, dtype=PETSc.IntType)
+        off_diagonal[contact_rows] = np.count_nonzero(~padded & ~local, axis=1)[:, None]
+        matrix = PETSc.Mat().createAIJ(solid.getSizes(), bsize=solid.getBlockSize(),
+                                       nnz=(diagonal, off_diagonal), comm=self.comm)
+        matrix.setValuesRCV(self._contact_rows.astype(PETSc.IntType),
+                            np.where(padded, -1, columns).astype(PETSc.IntType),
+                            np.zeros((len(contact_rows), 3 * columns.shape[1])))
+        matrix.assemble()
+        matrix.axpy(1.0, solid, structure=PETSc.Mat.Structure.DIFFERENT_NONZERO_PATTERN)
         matrix.setOption(PETSc.Mat.Option.NEW_NONZERO_ALLOCATION_ERR, True)
         return matrix
 
@@ -317,8 +346,8 @@ class ReducedSystem:
 
     def destroy(self) -> None:
         """Free the PETSc objects (matrices, vectors, the KSP); unusable afterwards."""
-        for item in (self._elastic_tangent, self._elastic_system, self._tangent_full,
-                     self._solid_tangent, self._residual_full, self.tangent,
+        for item in (self._elastic_system, self._tangent_full, self._solid_tangent,
+                     self._residual_full, self.tangent,
                      self._uncoupled_tangent, self.residual, self.height_column, self.force_row,
                      self.x1, self.x2, self._near_nullspace):
             if item is not None:

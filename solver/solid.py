@@ -29,6 +29,8 @@ from roughfriction.solver.plasticity import J2Response, J2State, radial_return, 
 
 #: Quadrature degree of the 2 x 2 x 2 Gauss rule on hexahedra (basix: degree 2 and 3 give it).
 DEVIATORIC_DEGREE = 2
+#: Cells whose stress :meth:`Solid.update_stress` return-maps at once [-].
+CELLS_AT_ONCE = 1024
 #: Quadrature degree of the 1-point (cell-centre) rule.
 VOLUMETRIC_DEGREE = {"selective": 1, "full": DEVIATORIC_DEGREE}
 
@@ -56,6 +58,13 @@ class Solid:
         Linear elastic solid (no yield check).
     integration : {"selective", "full"}
         Pressure at 1 point (SRI) or at the 2 x 2 x 2 points.
+
+    Attributes
+    ----------
+    committed, trial_state : J2State
+        Plastic history of the last converged step and of the last stress update.
+    yielding : numpy.ndarray
+        Gauss points on the yield surface in the last stress update, bool.
     """
 
     def __init__(self, mesh, material: Material, elastic: bool = False,
@@ -87,8 +96,7 @@ class Solid:
         self._strain_deviator = fem.Expression(ufl.dev(strain(self.displacement)), points)
 
         self.committed = J2State.virgin(self.num_cells * self.num_points)
-        self._set_response(radial_return(np.zeros((self.num_cells * self.num_points, 3, 3)),
-                                         self.committed, material, elastic))
+        self._return_map()  # of the zero displacement: the virgin state
 
         dx_dev = ufl.dx(metadata={"quadrature_degree": DEVIATORIC_DEGREE,
                                   "quadrature_scheme": "default"})
@@ -139,7 +147,7 @@ class Solid:
     def yielding_cells(self) -> np.ndarray:
         """Owned cells with a yielding Gauss point in the last stress update (int32)."""
         if self._yielding_cells is None:
-            yielding = self.response.yielding.reshape(self.num_cells, self.num_points).any(axis=1)
+            yielding = self.yielding.reshape(self.num_cells, self.num_points).any(axis=1)
             self._yielding_cells = np.flatnonzero(yielding).astype(np.int32)
         return self._yielding_cells
 
@@ -152,28 +160,44 @@ class Solid:
                 / self._mesh.topology.index_map(3).size_global)
         return self._yielding_fraction
 
-    def update_stress(self) -> J2Response:
-        """Return-map the current displacement from the committed state; fill the quadrature
-        functions the forms read. The result is a trial: :meth:`commit` accepts it."""
-        strain_deviator = self._strain_deviator.eval(self._cells).reshape(-1, 3, 3)
-        self._set_response(radial_return(strain_deviator, self.committed, self.material,
-                                         self.elastic))
-        return self.response
+    def update_stress(self) -> None:
+        """Return-map the current displacement from the committed state, ``CELLS_AT_ONCE``
+        cells at a time (the map is pointwise; this bounds its working memory); fill the
+        quadrature functions the forms read with stress and tangent factors, and keep the trial
+        history and yielding points. The result is a trial: :meth:`commit` accepts it."""
+        self._return_map()
 
-    def _set_response(self, response: J2Response) -> None:
-        """Make ``response`` the current stress update: quadrature functions filled, the
-        yielding cells to be counted anew."""
-        self.response = response
+    def _return_map(self) -> None:
+        """:meth:`update_stress` (also of the virgin state at construction, uncounted by
+        profilers that wrap :meth:`update_stress`)."""
+        committed, num_points = self.committed, self.num_points
+        plastic_strain = np.empty_like(committed.plastic_strain)
+        equivalent_plastic_strain = np.empty_like(committed.equivalent_plastic_strain)
+        yielding = np.empty(len(equivalent_plastic_strain), dtype=bool)
+        for first in range(0, self.num_cells, CELLS_AT_ONCE):
+            cells = self._cells[first:first + CELLS_AT_ONCE]
+            points = slice(first * num_points, (first + len(cells)) * num_points)
+            strain_deviator = self._strain_deviator.eval(cells).reshape(-1, 3, 3)
+            response = radial_return(
+                strain_deviator, J2State(committed.plastic_strain[points],
+                                         committed.equivalent_plastic_strain[points]),
+                self.material, self.elastic)
+            self._write_quadrature(response, points)
+            plastic_strain[points] = response.state.plastic_strain
+            equivalent_plastic_strain[points] = response.state.equivalent_plastic_strain
+            yielding[points] = response.yielding
+        self.trial_state = J2State(plastic_strain, equivalent_plastic_strain)
+        self.yielding = yielding
         self._yielding_cells = self._yielding_fraction = None
-        self._write_quadrature(response)
 
     def commit(self) -> None:
         """Accept the last stress update as the history of a converged step."""
-        self.committed = self.response.state
+        self.committed = self.trial_state
 
-    def _write_quadrature(self, response: J2Response) -> None:
-        """Copy stress, tangent factors and the yielded flag into the quadrature functions."""
-        tensor, scalar = self._tensor_dofs, self._scalar_dofs
+    def _write_quadrature(self, response: J2Response, points: slice) -> None:
+        """Copy stress, tangent factors and the yielded flag of the Gauss ``points`` (of the
+        owned cells, cell-major) into the quadrature functions."""
+        tensor, scalar = self._tensor_dofs[points], self._scalar_dofs[points]
         for function, values in ((self.stress_deviator, response.stress_deviator),
                                  (self.flow_direction, response.flow_direction)):
             function.x.array.reshape(-1, 9)[tensor] = values.reshape(-1, 9)
@@ -190,10 +214,11 @@ class Solid:
     def cell_von_mises(self) -> np.ndarray:
         """Von Mises stress averaged over each owned cell's Gauss points [Pa] (deviator only:
         q does not depend on pressure)."""
-        q = von_mises(self.response.stress_deviator)
+        stress_deviator = self.stress_deviator.x.array.reshape(-1, 9)[self._tensor_dofs]
+        q = von_mises(stress_deviator.reshape(-1, 3, 3))
         return q.reshape(self.num_cells, self.num_points).mean(axis=1)
 
     def cell_plastic_strain(self) -> np.ndarray:
         """Equivalent plastic strain averaged over each owned cell's Gauss points [-]."""
-        p = self.response.state.equivalent_plastic_strain
+        p = self.trial_state.equivalent_plastic_strain
         return p.reshape(self.num_cells, self.num_points).mean(axis=1)

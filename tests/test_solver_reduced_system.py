@@ -15,6 +15,14 @@ from roughfriction.solver.run import run  # noqa: E402
 pytestmark = pytest.mark.fem
 
 
+def _run_random_surface() -> None:
+    """Preload and slide a random 16 x 16 surface at F* = 0.5 (to convergence)."""
+    heights = np.random.default_rng(7).normal(0.0, 1e-7, (16, 16))
+    case = FemCase(Surface(heights, 1e-6, "test"), Loading(0.5))
+    result = run(case, MPI.COMM_WORLD, progress=lambda record: None).result
+    assert result.converged, result.message
+
+
 def test_the_bordered_newton_direction_meets_its_krylov_tolerance(monkeypatch):
     """At every Newton iteration of a random 16 x 16 surface's preload and sliding, the
     direction (du, dh) of the bordered system leaves a linear residual ||K du + b dh + R|| of at
@@ -36,10 +44,7 @@ def test_the_bordered_newton_direction_meets_its_krylov_tolerance(monkeypatch):
         return height_increment, krylov
 
     monkeypatch.setattr(ReducedSystem, "bordered_solve", checked)
-    heights = np.random.default_rng(7).normal(0.0, 1e-7, (16, 16))
-    case = FemCase(Surface(heights, 1e-6, "test"), Loading(0.5))
-    result = run(case, MPI.COMM_WORLD, progress=lambda record: None).result
-    assert result.converged, result.message
+    _run_random_surface()
     assert len(ratios) > 20
     assert max(ratios) <= 2.0, f"linear residual {max(ratios):.3g} x the forcing term"
 
@@ -61,7 +66,9 @@ def test_the_tangent_is_the_reduced_solid_tangent_plus_the_contact_blocks(monkey
 
     def checked(self, contact):
         assemble_tangent(self, contact)
-        full = self._elastic_tangent.duplicate(copy=True)
+        full = fem_petsc.create_matrix(self.solid.elastic_tangent_forms[0])
+        for form in self.solid.elastic_tangent_forms:
+            fem_petsc.assemble_matrix(full, form)
         plastic = self.solid.plastic_tangent_form()
         if plastic is not None:
             plastic_iterations[0] += 1
@@ -69,7 +76,6 @@ def test_the_tangent_is_the_reduced_solid_tangent_plus_the_contact_blocks(monkey
         full.assemble()
         reduced = self.reduction.reduce_matrix(full)
         reference = self._system_matrix(reduced)
-        reference.axpy(1.0, reduced, structure=PETSc.Mat.Structure.SUBSET_NONZERO_PATTERN)
         blocks = contact.node_stiffness[self.flat.owned_grid].transpose(0, 2, 1, 3)
         reference.setValuesBlockedRCV(self._contact_rows[:, :1] // 3, self._contact_columns,
                                       blocks.reshape(len(blocks), -1),
@@ -82,9 +88,117 @@ def test_the_tangent_is_the_reduced_solid_tangent_plus_the_contact_blocks(monkey
             matrix.destroy()
 
     monkeypatch.setattr(ReducedSystem, "assemble_tangent", checked)
-    heights = np.random.default_rng(7).normal(0.0, 1e-7, (16, 16))
-    case = FemCase(Surface(heights, 1e-6, "test"), Loading(0.5))
-    result = run(case, MPI.COMM_WORLD, progress=lambda record: None).result
-    assert result.converged, result.message
+    _run_random_surface()
     assert plastic_iterations[0] > 10 and len(differences) > 20
     assert max(differences) < 1e-13, f"the tangent differs by {max(differences):.2e} (Frobenius)"
+
+
+def _reduced_system(n: int = 16) -> ReducedSystem:
+    """The reduced system of a random n x n surface (one rank's share), before any assembly."""
+    from roughfriction.solver.block import build_block
+    from roughfriction.solver.equilibrium import Equilibrium
+    from roughfriction.solver.periodic import PeriodicReduction
+    from roughfriction.solver.run import surface_contact, with_blend_layers_needed
+    from roughfriction.solver.solid import Solid
+
+    heights = np.random.default_rng(7).normal(0.0, 1e-7, (n, n))
+    case = with_blend_layers_needed(FemCase(Surface(heights, 1e-6, "test"), Loading(0.5)),
+                                    lambda record: None)
+    block = build_block(heights, 1e-6, case.mesh, MPI.COMM_WORLD)
+    solid = Solid(block.mesh, case.material)
+    reduction = PeriodicReduction(solid.V, block)
+    flat = surface_contact(solid, block, case, reduction)
+    return Equilibrium(solid, reduction, flat, case.solver, block.spacing).system
+
+
+def _union_pattern(system: ReducedSystem, solid: PETSc.Mat) -> tuple:
+    """(row pointer, columns) of the nonzeros of ``solid`` and of every owned surface node's
+    rows with the 3 x 75 columns of its 25 neighbours, by sorting all (row, column) pairs."""
+    start, end = solid.getOwnershipRange()
+    row_pointer, columns, _ = solid.getValuesCSR()
+    rows = [np.repeat(np.arange(end - start), np.diff(row_pointer))]
+    cols = [columns.astype(np.int64)]
+    node_columns = (3 * system._contact_columns[:, :, None] + np.arange(3)).reshape(
+        len(system._contact_rows), -1)
+    for component in range(3):
+        rows.append(np.repeat(system._contact_rows[:, component] - start,
+                              node_columns.shape[1]))
+        cols.append(node_columns.ravel())
+    size = solid.getSize()[1]
+    rows, cols = np.concatenate(rows).astype(np.int64), np.concatenate(cols)
+    kept = cols >= 0  # not the padding of a contact row
+    pairs = np.unique(rows[kept] * size + cols[kept])
+    rows, columns = np.divmod(pairs, size)
+    return np.concatenate([[0], np.cumsum(np.bincount(rows, minlength=end - start))]), columns
+
+
+def test_the_system_matrix_has_the_solid_and_contact_pattern_within_a_memory_budget():
+    """The system matrix of a 16 x 16 surface has exactly the nonzeros of P^T K_elastic P and
+    of the contact blocks of every surface node (a union of all (row, column) pairs as the
+    reference), P^T K P's values and zeros elsewhere, and building it takes at most 8 bytes of
+    NumPy working memory per nonzero (the matrix itself takes 12 in PETSc): a copy of the
+    pattern in NumPy takes more, sorting all (row, column) pairs as 64-bit keys several
+    times that."""
+    import tracemalloc
+
+    system = _reduced_system()
+    full = system._assemble_full(system.solid.elastic_tangent_forms)
+    full.assemble()
+    elastic = system.reduction.reduce_matrix(full)
+    tracemalloc.start()
+    try:
+        matrix = system._system_matrix(elastic)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    row_pointer, columns, _ = matrix.getValuesCSR()
+    reference_pointer, reference_columns = _union_pattern(system, elastic)
+    np.testing.assert_array_equal(row_pointer, reference_pointer)
+    np.testing.assert_array_equal(columns, reference_columns)
+    matrix.axpy(-1.0, elastic, structure=PETSc.Mat.Structure.SUBSET_NONZERO_PATTERN)
+    assert matrix.norm(PETSc.NormType.FROBENIUS) == 0.0  # P^T K P's values, zeros elsewhere
+    nonzeros = len(columns)
+    assert peak <= 8 * nonzeros, f"{peak / nonzeros:.1f} bytes per nonzero"
+    for item in (full, elastic, matrix):
+        item.destroy()
+    system.destroy()
+
+
+def test_no_full_mesh_matrix_is_kept_while_few_cells_yield(monkeypatch):
+    """Through a random 16 x 16 surface's preload and sliding with the plastic correction
+    reduced on its own cells, the system keeps no matrix of the full mesh's size (the elastic
+    K is freed once reduced: it is not stored next to its P^T K P), and its reduced matrices
+    are the elastic part and the tangent (and, once the tangent is not symmetric, the
+    uncoupled tangent)."""
+    monkeypatch.setattr(reduced_system_module, "WHOLE_MESH_YIELDING", 1.0)
+    assemble_tangent = ReducedSystem.assemble_tangent
+    held = []
+
+    def noted(self, contact):
+        assemble_tangent(self, contact)
+        full_size = self.reduction.P.getSize()[0]
+        matrices = [item for name, item in vars(self).items()
+                    if isinstance(item, PETSc.Mat) and name != "_uncoupled_tangent"]
+        held.append((sum(m.getSize()[0] == full_size for m in matrices), len(matrices)))
+
+    monkeypatch.setattr(ReducedSystem, "assemble_tangent", noted)
+    _run_random_surface()
+    assert len(held) > 20
+    assert max(full for full, _ in held) == 0, "a full-mesh matrix is kept"
+    assert max(reduced for _, reduced in held) <= 2
+
+
+def test_a_reduced_matrix_freed_of_its_product_data_keeps_no_full_matrix_alive():
+    """PETSc's P^T K P holds a reference to K (to repeat the product); once its product data
+    are freed (as the system does before building its matrices), destroying K frees it."""
+    system = _reduced_system(8)
+    full = system._assemble_full(system.solid.elastic_tangent_forms)
+    full.assemble()
+    elastic = system.reduction.reduce_matrix(full)
+    assert full.getRefCount() == 2
+    reduced_system_module.free_product_data(elastic)
+    assert full.getRefCount() == 1
+    assert elastic.norm() > 0.0
+    for item in (full, elastic):
+        item.destroy()
+    system.destroy()

@@ -12,8 +12,10 @@ from roughfriction.geometry.mesh import (  # noqa: E402
     mesh_size,
 )
 from roughfriction.material import Material  # noqa: E402
+from roughfriction.solver import solid as solid_module  # noqa: E402
 from roughfriction.solver.block import build_block  # noqa: E402
 from roughfriction.solver.periodic import PeriodicReduction, dof_node_grid_index  # noqa: E402
+from roughfriction.solver.plasticity import radial_return, von_mises  # noqa: E402
 from roughfriction.solver.solid import Solid  # noqa: E402
 
 pytestmark = pytest.mark.fem
@@ -81,7 +83,7 @@ def test_plastic_tangent_is_the_derivative_of_the_residual(block):
     residual_plus, _ = residual_at(base + step * direction)
     residual_minus, _ = residual_at(base - step * direction)
     _, tangent = residual_at(base)
-    yielding = solid.response.yielding.mean()
+    yielding = solid.yielding.mean()
     assert 0.1 < yielding < 0.9, f"test needs a partly plastic block, yielding {yielding:.2f}"
     product = residual_plus.duplicate()
     solid.displacement.x.array[:] = direction
@@ -91,6 +93,47 @@ def test_plastic_tangent_is_the_derivative_of_the_residual(block):
     difference.scale(1.0 / (2.0 * step))
     difference.axpy(-1.0, product)
     assert difference.norm() <= 1e-5 * product.norm()
+
+
+def _numpy_bytes(*items) -> int:
+    """Bytes of the NumPy arrays among ``items`` and the fields of the dataclasses among them."""
+    total = 0
+    for item in items:
+        if isinstance(item, np.ndarray):
+            total += item.nbytes
+        elif hasattr(item, "__dataclass_fields__"):
+            total += _numpy_bytes(*vars(item).values())
+    return total
+
+
+def test_the_solid_keeps_the_stress_and_tangent_factors_once(block, monkeypatch):
+    """A stress update with yielding points, return-mapped 5 cells at a time, gives the trial
+    history, yielding points and quadrature values of one return map of all points; the
+    solid's own NumPy arrays then hold per Gauss point no more than the trial and committed
+    history (10 doubles each), the yielding flag and two int32 indices (and one int32 per
+    cell): stress deviator, flow direction and tangent factors live in the quadrature
+    functions the forms read, not a second time in NumPy."""
+    monkeypatch.setattr(solid_module, "CELLS_AT_ONCE", 5)
+    material = Material()
+    solid = Solid(block.mesh, material)
+    x = solid.V.tabulate_dof_coordinates()
+    u = solid.displacement.x.array.reshape(-1, 3)
+    u[:, 0] = 4.0 * material.Sy / material.shear_modulus * block.depth * (x[:, 2] / block.depth)**2
+    solid.update_stress()
+    whole = radial_return(solid._strain_deviator.eval(solid._cells).reshape(-1, 3, 3),
+                          solid.committed, material)
+    assert whole.yielding.any() and solid.num_cells > 5
+    np.testing.assert_array_equal(solid.yielding, whole.yielding)
+    np.testing.assert_array_equal(solid.trial_state.plastic_strain, whole.state.plastic_strain)
+    np.testing.assert_array_equal(solid.trial_state.equivalent_plastic_strain,
+                                  whole.state.equivalent_plastic_strain)
+    np.testing.assert_array_equal(solid.gamma.x.array[solid._scalar_dofs], whole.gamma)
+    q = von_mises(whole.stress_deviator)
+    np.testing.assert_array_equal(
+        solid.cell_von_mises(), q.reshape(solid.num_cells, solid.num_points).mean(axis=1))
+    points = solid.num_cells * solid.num_points
+    budget = points * (2 * 80 + 1 + 2 * 4) + solid.num_cells * 4
+    assert _numpy_bytes(*vars(solid).values()) <= budget
 
 
 def random_reduced_field(block):
