@@ -64,19 +64,20 @@ lint: setup
 	@$(VENV)/bin/ruff check .
 
 # --- figures ----------------------------------------------------------------------------
-SURFACE_FIGURES := fig3 fig4 fig5 fig6
-THEORY_FIGURES := fig12 fig13 fig17 fig18 fig19
+# The figures are registered once, in scripts/figures.py (THEORY_FIGURES, FEM_FIGURES); the
+# targets below read the two lists from it.
+registry = $(shell python3 -c 'import ast, sys; tree = ast.parse(open("scripts/figures.py").read()); \
+  print(*next(ast.literal_eval(node.value) for node in tree.body if isinstance(node, ast.Assign) \
+  and getattr(node.targets[0], "id", None) == sys.argv[1]))' $(1))
+THEORY_FIGURES := $(call registry,THEORY_FIGURES)
 # FEM figures (fig14: theory with FEM points), on N x N surface grids under mpirun. Runs are kept
 # in results/runs/ (the run cache): a figure never recomputes a finished run, and a killed
 # `make figures` resumes where it stopped. A run that cannot start (an inverted mesh) does not
 # stop the others: the batch names it at the end and fails (`make -k figures` draws the rest).
-# Sliding figures come first so that the normal-only figures (fig20, fig14, fig8-fig10) mostly
-# read the preloads of their sliding runs.
 N ?= 32
-FEM_FIGURES := fig22 fig23 fig24 fig25 fig26 fig27 fig28 fig21 fig29 fig15 fig20 fig14 fig8 \
-	fig9 fig10
-.PHONY: $(SURFACE_FIGURES) $(THEORY_FIGURES) $(FEM_FIGURES) fem-runs
-$(SURFACE_FIGURES) $(THEORY_FIGURES): setup
+FEM_FIGURES := $(call registry,FEM_FIGURES)
+.PHONY: $(THEORY_FIGURES) $(FEM_FIGURES) fem-runs
+$(THEORY_FIGURES): setup
 	@$(VENV)/bin/roughfriction figure $@
 
 $(FEM_FIGURES): setup
@@ -87,13 +88,13 @@ fem-runs: setup
 	@$(MPIRUN) $(VENV)/bin/roughfriction figure runs --n $(N)
 
 # ... then the paper's statements about them, checked against their CSVs: figures/claims.md
-figures: $(SURFACE_FIGURES) $(THEORY_FIGURES) fem-runs $(FEM_FIGURES)
+figures: $(THEORY_FIGURES) fem-runs $(FEM_FIGURES)
 	@$(VENV)/bin/roughfriction figure claims
 
 # Copy the figures the README shows into docs/figures/ (committed; figures/ is not).
 gallery: figures
-	@cp $(addprefix figures/,$(addsuffix .png,$(SURFACE_FIGURES) $(THEORY_FIGURES) \
-	  $(FEM_FIGURES))) figures/claims.md docs/figures/
+	@cp $(addprefix figures/,$(addsuffix .png,$(THEORY_FIGURES) $(FEM_FIGURES))) \
+	  figures/claims.md docs/figures/
 
 # --- benchmarks -------------------------------------------------------------------------
 bench-multiscale: setup

@@ -293,3 +293,21 @@ def test_mu_vs_psi_draws_points_with_unresolved_patches_hollow():
     runs = fake_runs(fig23.fem_cases(8), [0.3] * 9)  # no cells per patch: not marked
     labels = fig23.make(runs)[0].axes[0].get_legend_handles_labels()[1]
     assert not any(label.endswith(UNRESOLVED) for label in labels)
+
+
+def test_the_makefile_names_no_figure_and_reads_the_registry():
+    """The figures are registered once (scripts/figures.py): the Makefile's figure lists come
+    from it, and make expands them to the registry's names."""
+    import re
+    import subprocess
+    from pathlib import Path
+
+    from roughfriction.scripts.figures import FEM_FIGURES, THEORY_FIGURES
+
+    makefile = Path(__file__).resolve().parents[1] / "Makefile"
+    code = [line.split("#")[0] for line in makefile.read_text().splitlines()]
+    assert not [line for line in code if re.search(r"\bfig\d+\b", line)]
+    database = subprocess.run(["make", "-pn", "-f", str(makefile), "lint"], cwd=makefile.parent,
+                              capture_output=True, text=True).stdout
+    for name, names in (("THEORY_FIGURES", THEORY_FIGURES), ("FEM_FIGURES", FEM_FIGURES)):
+        assert f"{name} := {' '.join(names)}" in database.splitlines()
