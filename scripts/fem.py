@@ -13,6 +13,12 @@ command says so on stderr with the psi of both. ``--window K`` meshes instead an
 the surface at its own spacing (``best``: the window whose psi is nearest the whole surface's),
 the right choice for i.i.d. heights, whose windows have the surface's psi.
 
+Error on request: ``--tol REL`` runs the same (bilinear) surface on meshes 1x, 2x, 4x, ...
+finer (``studies.refinement.run_ladder``) until the estimated relative error of mu_s is at most
+REL; ``--max-level``, ``--max-memory`` and ``--max-time`` bound it, and when they stop it short
+the finest level is written with its estimate and the command exits 3 with one line. ``--refine``
+is the same ladder through 2x without a tolerance.
+
 A run writes every step and its inputs to an HDF5 file (``--output``, on rank 0) and returns the
 JSON summary. If the preload or the sliding does not converge, the partial results are written,
 labelled unconverged, and an ``InputError`` with the reason is raised (the CLI exits non-zero);
