@@ -18,7 +18,7 @@ DEBIAN_PACKAGES := python3-dolfinx-real python3-petsc4py-real python3-mpi4py pyt
 	python3-h5py python3-scipy python3-matplotlib python3-venv libopenblas0-serial
 
 .PHONY: setup test lint figures gallery bench bench-multiscale bench-fem bench-path bench-error \
-	bench-error-quick bench-profile stress clean
+	bench-error-quick bench-profile bench-calibration stress clean
 
 # --- set-up -----------------------------------------------------------------------------
 $(VENV)/.apt-done:
@@ -137,6 +137,12 @@ PROFILE_CASE ?= G5:0.155
 bench-profile: setup
 	@$(MPIRUN) $(VENV)/bin/roughfriction bench profile $(firstword $(subst :, ,$(PROFILE_CASE))) \
 	  --load $(lastword $(subst :, ,$(PROFILE_CASE))) --n $(N)
+
+# The error estimate of --tol against an 8x uniform reference on 4 x 4 windows of G1, G5, G9,
+# 2L, 8L at F* = 0.155 and 0.93 (studies/calibration.py; ~20 min on 2 loaded cores).
+bench-calibration: setup
+	@mkdir -p docs/bench
+	@$(MPIRUN) $(PY) -m roughfriction.studies.calibration docs/bench/calibration.csv
 
 bench: bench-multiscale bench-fem bench-path bench-error
 

@@ -13,6 +13,12 @@ command says so on stderr with the psi of both. ``--window K`` meshes instead an
 the surface at its own spacing (``best``: the window whose psi is nearest the whole surface's),
 the right choice for i.i.d. heights, whose windows have the surface's psi.
 
+Error on request: ``--tol REL`` runs the same (bilinear) surface on meshes 1x, 2x, 4x, ...
+finer (``studies.refinement.run_ladder``) until the estimated relative error of mu_s is at most
+REL; ``--max-level``, ``--max-memory`` and ``--max-time`` bound it, and when they stop it short
+the finest level is written with its estimate and the command exits 3 with one line. ``--refine``
+is the same ladder through 2x without a tolerance.
+
 A run writes every step and its inputs to an HDF5 file (``--output``, on rank 0) and returns the
 JSON summary. If the preload or the sliding does not converge, the partial results are written,
 labelled unconverged, and an ``InputError`` with the reason is raised (the CLI exits non-zero);
@@ -30,6 +36,7 @@ from __future__ import annotations
 import argparse
 import hashlib
 import json
+import math
 import re
 import sys
 import tomllib
@@ -41,7 +48,13 @@ from roughfriction.errors import ConvergenceError, InputError
 from roughfriction.files import agreed, check_writable_directory, check_writable_file
 from roughfriction.geometry.surface import Surface, surface_on_fem_grid, validate_grid_points
 from roughfriction.material import Material
-from roughfriction.studies.refinement import next_mesh, richardson
+from roughfriction.studies.refinement import (
+    DEFAULT_MAX_LEVEL,
+    LadderLimits,
+    LevelRun,
+    ToleranceNotMet,
+    run_ladder,
+)
 
 CONFIG_TABLES = {"mesh": MeshOptions, "solver": SolverOptions, "material": Material}
 CONFIG_KEYS = {"load", "n", "elastic", "normal_only"}
@@ -65,7 +78,22 @@ def add_fem_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--refine", action="store_true",
                         help="also run a 2x finer mesh of the same (bilinear) surface and report "
                         "its mu_s with an error estimate (mu_s_coarse, mu_s_extrapolated, "
-                        "mu_s_error; see docs/verification.md)")
+                        "mu_s_error; see docs/verification.md); the same as --tol with "
+                        "--max-level 1, without a tolerance")
+    parser.add_argument("--tol", type=_fraction, metavar="REL",
+                        help="run meshes 1x, 2x, 4x, ... finer until the estimated relative "
+                        "error of mu_s (normal-only: of A_r/A_n) is at most REL, e.g. 0.03; "
+                        "order observed from the last three levels, assumed first order with "
+                        "two; exit 3 with the best estimate when a limit stops it")
+    parser.add_argument("--max-level", type=_level, metavar="L",
+                        help=f"with --tol: finest mesh 2^L times finer (default "
+                        f"{DEFAULT_MAX_LEVEL})")
+    parser.add_argument("--max-memory", type=_positive, metavar="GB",
+                        help="with --tol: largest estimated memory of a level, all ranks "
+                        "together (default: what is available)")
+    parser.add_argument("--max-time", type=_positive, metavar="MIN",
+                        help="with --tol: wall time of all levels together, in minutes (a level "
+                        "is not started when it is predicted to overrun)")
     parser.add_argument("--xdmf", metavar="DIR",
                         help="write fields to DIR/fields.xdmf (and DIR/fields.h5)")
     parser.add_argument("--msh", metavar="PATH", help="write the block as a gmsh mesh file (.msh)")
@@ -79,6 +107,32 @@ def add_fem_arguments(parser: argparse.ArgumentParser) -> None:
                         help="case file: load, n, elastic, normal_only and tables [mesh], "
                         "[solver], [material] (SI units); flags override it")
     parser.add_argument("--json", action="store_true", help="one JSON object on stdout")
+
+
+def _positive(text: str) -> float:
+    """argparse type: a finite number > 0."""
+    from roughfriction.scripts.cli import positive_float
+
+    return positive_float(text)
+
+
+def _fraction(text: str) -> float:
+    """argparse type: a relative tolerance in (0, 1)."""
+    value = _positive(text)
+    if value >= 1.0:
+        raise argparse.ArgumentTypeError(f"a relative error below 1 (e.g. 0.03), got {text}")
+    return value
+
+
+def _level(text: str) -> int:
+    """argparse type: a level >= 1 (2^L times finer)."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be >= 1 (an estimate needs two levels), got {text}")
+    return value
 
 
 def read_config(path: str | None) -> dict:
@@ -177,10 +231,14 @@ DIGEST_LENGTH = 8
 
 def run_labels(args) -> tuple[str, ...]:
     """What the command line adds to the case in the results name: the window (``window3``,
-    ``windowbest``) and ``refined`` (the run is the 2x finer mesh)."""
+    ``windowbest``), ``refined`` (the run is the 2x finer mesh) and the tolerance with its
+    finest level (``tol0.03_L3``)."""
     window = getattr(args, "window", None)
+    tolerance = getattr(args, "tol", None)
+    level = getattr(args, "max_level", None) or DEFAULT_MAX_LEVEL
     return ((f"window{window}",) if window is not None else ()) + (
-        ("refined",) if getattr(args, "refine", False) else ())
+        ("refined",) if getattr(args, "refine", False) else ()) + (
+        (f"tol{tolerance:g}_L{level}",) if tolerance is not None else ())
 
 
 def default_output(case: FemCase, labels: tuple[str, ...] = ()) -> Path:
@@ -252,7 +310,8 @@ def run_fem(args) -> dict:
         Bad input or an inverted mesh.
     ConvergenceError
         A run that did not converge (after writing the partial
-        results).
+        results); with ``--tol``, a tolerance not met (:class:`ToleranceNotMet`, after
+        writing the finest level).
     """
     from mpi4py import MPI
     from roughfriction.geometry.statistics import surface_statistics
@@ -261,6 +320,7 @@ def run_fem(args) -> dict:
     from roughfriction.solver.run import run, with_blend_layers_needed
 
     comm = MPI.COMM_WORLD
+    limits = ladder_limits(args, comm)
     case = case_from_args(args, agreed(comm, lambda: surface_from_args(args)), comm)
     outputs = FemOutputs.from_args(args, case)
     agreed(comm, lambda: outputs.check(args.overwrite))
@@ -270,21 +330,74 @@ def run_fem(args) -> dict:
         meshed_case = with_blend_layers_needed(case, lambda note: None)  # the run says it
         write_block_msh(case.surface.heights, case.surface.spacing, meshed_case.mesh, args.msh,
                         comm)
-    outcome = run(case, comm, xdmf_directory=outputs.fields)
-    if not args.refine:
+    if limits is None:
+        outcome = run(case, comm, xdmf_directory=outputs.fields)
         _save(output, case, outcome, comm, meshed)
         summary = outcome.result.summary()
         _warn_unresolved(summary, comm)
         return {**summary, **meshed}
+    return run_levels(case, outputs, limits, meshed, comm)
 
-    _save(outputs.coarse, case, outcome, comm, meshed)
-    fine_case = next_mesh(case)
-    fine = run(fine_case, comm)
-    summary = fine.result.summary()
-    estimate = discretisation_error(outcome.result.summary(), summary)
-    _save(output, fine_case, fine, comm, {**estimate, **meshed})
+
+def ladder_limits(args, comm) -> LadderLimits | None:
+    """The levels the command line asks for (``--tol`` and its limits; ``--refine``: levels 0
+    and 1 without a tolerance), None for a single run. The memory limit is the smaller of
+    ``--max-memory`` and what is available to ``comm``'s ranks."""
+    from roughfriction.solver.run import available_memory_gb
+
+    tolerance = getattr(args, "tol", None)
+    limited = [f"--{name.replace('_', '-')}" for name in ("max_level", "max_memory", "max_time")
+               if getattr(args, name, None) is not None]
+    if tolerance is None and not args.refine:
+        if limited:
+            raise InputError(f"{', '.join(limited)} limit{'s' * (len(limited) == 1)} --tol: "
+                             "give a tolerance")
+        return None
+    if args.refine and (tolerance is not None or limited):
+        raise InputError("--refine is the two-level shortcut: give --tol (with its limits) or "
+                         "--refine, not both")
+    max_memory = min(args.max_memory or math.inf, available_memory_gb(comm))
+    return LadderLimits(tolerance, 1 if args.refine else (args.max_level or DEFAULT_MAX_LEVEL),
+                        max_memory, 60.0 * (args.max_time or math.inf))
+
+
+def run_levels(case: FemCase, outputs: FemOutputs, limits: LadderLimits, meshed: dict,
+               comm) -> dict:
+    """Run the case on finer and finer meshes (:func:`studies.refinement.run_ladder`): each
+    level is written as soon as its estimate is known to ``outputs.results`` (``--refine``:
+    level 0 to ``outputs.coarse``), the finest replacing the one before; fields (``--xdmf``)
+    are those of level 0. Returns the finest level's summary with the estimate and the
+    per-level columns; raises :class:`ToleranceNotMet` (exit 3, after writing) when a limit
+    stopped the ladder short of the tolerance or of an estimate."""
+    from roughfriction.geometry.mesh import estimated_memory_gb
+    from roughfriction.solver.run import run
+
+    finest = {}  # the summary of the last level run
+
+    def run_level(level: int, level_case: FemCase) -> LevelRun:
+        fem_run = run(level_case, comm, xdmf_directory=outputs.fields if level == 0 else None)
+        summary = fem_run.result.summary()
+        finest.update(summary)
+        path = outputs.coarse if outputs.coarse is not None and level == 0 else outputs.results
+        if not fem_run.result.converged:
+            _save(path, level_case, fem_run, comm, meshed)  # raises ConvergenceError
+
+        def save(ladder) -> None:
+            extra = meshed if path == outputs.coarse else {**ladder.summary(), **meshed}
+            _save(path, level_case, fem_run, comm, extra)
+
+        key = "area_ratio_normal" if level_case.loading.normal_only else "mu_s"
+        sizes = fem_run.result.sizes
+        return LevelRun(summary[key], sizes["reduced_dofs"], sizes["cells"], save)
+
+    ladder = run_ladder(case, run_level, limits,
+                        lambda level_case: estimated_memory_gb(level_case.surface.n,
+                                                               level_case.mesh, comm.size))
+    if not ladder.met:
+        raise ToleranceNotMet(f"{ladder.shortfall()} (results in {outputs.results})")
+    summary = {**finest, **ladder.summary(), **meshed}
     _warn_unresolved(summary, comm)
-    return {**summary, **estimate, **meshed}
+    return summary
 
 
 def _save(output: Path, case: FemCase, fem_run, comm, extra: dict) -> None:
@@ -317,16 +430,6 @@ def _warn_unresolved(summary: dict, comm) -> None:
     warning = unresolved_warning(summary)
     if warning and comm.rank == 0:
         print(warning, file=sys.stderr)
-
-
-def discretisation_error(coarse: dict, fine: dict) -> dict:
-    """The fine mesh's mu_s (or, normal-only, its preload area ratio) with its Richardson error
-    estimate from the coarse mesh at first order (``studies.refinement``)."""
-    key = "mu_s" if fine["mu_s"] is not None else "area_ratio_normal"
-    estimate = richardson([coarse[key], fine[key]])
-    return {f"{key}_coarse": coarse[key], f"{key}_extrapolated": estimate.extrapolated,
-            f"{key}_error": estimate.error, "error_order": estimate.order,
-            "error_order_observed": estimate.observed}
 
 
 def _check_converged(outcome, output: Path) -> None:

@@ -341,9 +341,13 @@ def run_report(run: RunFile) -> dict:
     -------
     dict
         Scalars first (``file``, ``surface``, ``n``, ``load_star``, the run's summary, the
-        interference ``omega_0_m`` [m]), then ``per_step`` (the columns of :func:`step_table`,
-        as lists), ``junction`` (:func:`junction_growth`), ``tangential_curve``
-        (:func:`tangential_curve`, as lists) and ``maps`` (name -> :func:`map_summary`).
+        interference ``omega_0_m`` [m]); for the finest level of ``fem --tol``/``--refine``, the
+        summary also holds ``mu_s_error`` (or ``area_ratio_normal_error``), the order used and
+        ``levels``: per level the refinement ``factor``, ``reduced_dofs``, ``cells``, the value
+        and ``wall_s`` [s] (:meth:`studies.refinement.Ladder.summary`); then ``per_step`` (the
+        columns of :func:`step_table`, as lists), ``junction`` (:func:`junction_growth`),
+        ``tangential_curve`` (:func:`tangential_curve`, as lists) and ``maps`` (name ->
+        :func:`map_summary`).
     """
     curve = tangential_curve(run)
     return {

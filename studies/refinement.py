@@ -13,15 +13,22 @@ With results f_1, f_2 (, f_4) on meshes of spacing h, h/2 (, h/4):
 The estimate can be trusted in the asymptotic range, where the observed order is steady: with
 two meshes that is an assumption (p = 1 is the conservative choice for a contact area counted
 at points: its error is proportional to the contact perimeter times the spacing).
+
+:func:`run_ladder` adds levels (1x, 2x, 4x, ...) until the estimate of the finest value is
+within a relative tolerance, or a limit (level, memory, time) stops it; :func:`level_case` is
+the one place where the case of level k is made.
 """
 
 from __future__ import annotations
 
 import math
+import time
+from collections.abc import Callable
 from dataclasses import dataclass, replace
 
 from roughfriction.case import FemCase
-from roughfriction.geometry.mesh import blend_layers_needed
+from roughfriction.errors import ConvergenceError
+from roughfriction.geometry.mesh import blend_layers_needed, mesh_size
 from roughfriction.geometry.surface import Surface, bilinear_refine
 
 #: Order assumed with two meshes [-].
@@ -30,17 +37,32 @@ ASSUMED_ORDER = 1.0
 LADDER_RATIO = 2
 
 
+def blend_depth_layers(case: FemCase) -> int:
+    """Blend layers (of thickness h) the case's run meshes: its own count, or more where its
+    deepest valley needs them (as ``solver.run.with_blend_layers_needed`` takes) [-]."""
+    surface = case.surface
+    return max(case.mesh.blend_layers, blend_layers_needed(surface.heights, surface.spacing))
+
+
 def refined_case(case: FemCase, factor: int) -> FemCase:
     """The case on a mesh ``factor`` times finer: the same (bilinear) surface, sampled finer,
-    with at least the blend layers its deepest valley needs at the finer spacing
-    (:func:`geometry.mesh.blend_layers_needed`; the layers are thinner)."""
+    and a blend zone of the same physical depth, ``factor`` times the layers the case meshes
+    (:func:`blend_depth_layers`, each h / factor thick), or more where the finer valleys need
+    them (:func:`geometry.mesh.blend_layers_needed`)."""
     if factor == 1:
         return case
     surface = case.surface
     fine = Surface(bilinear_refine(surface.heights, factor), surface.spacing / factor,
                    surface.name)
-    blend_layers = max(case.mesh.blend_layers, blend_layers_needed(fine.heights, fine.spacing))
+    blend_layers = max(factor * blend_depth_layers(case),
+                       blend_layers_needed(fine.heights, fine.spacing))
     return replace(case, surface=fine, mesh=replace(case.mesh, blend_layers=blend_layers))
+
+
+def level_case(case: FemCase, level: int) -> FemCase:
+    """The case of level ``level`` of a ladder (level 0: the case itself): today the uniform
+    mesh :data:`LADDER_RATIO` ** level times finer (:func:`refined_case`)."""
+    return refined_case(case, LADDER_RATIO**level)
 
 
 def next_mesh(case: FemCase) -> FemCase:
@@ -101,3 +123,212 @@ def richardson(values, order: float = ASSUMED_ORDER) -> ErrorEstimate:
     coarse, fine = values[-2], values[-1]
     correction = (fine - coarse) / (float(LADDER_RATIO)**order - 1.0)
     return ErrorEstimate(values, fine + correction, abs(correction), order, observed)
+
+
+# --- a ladder of levels up to a tolerance -----------------------------------------------------
+
+#: Finest level a ladder may reach unless the user allows another: 2^3 = 8x [-].
+DEFAULT_MAX_LEVEL = 3
+
+
+class ToleranceNotMet(ConvergenceError):
+    """The error of the finest level stayed above the tolerance within the limits the user
+    allows (the results of the finest level are written; the CLI exits with status 3)."""
+
+
+@dataclass(frozen=True)
+class LadderLimits:
+    """What a ladder may spend.
+
+    Attributes
+    ----------
+    tolerance : float or None
+        Relative error of the finest value to reach [-]; None: run every level up to
+        ``max_level`` and report the estimate (``--refine``: max_level 1).
+    max_level : int
+        Finest level (mesh 2^max_level times finer) [-], >= 1.
+    max_memory_gb : float
+        Estimated peak memory of a level, summed over ranks [GB].
+    max_time_s : float
+        Wall time of the whole ladder [s]; a level is not started when the time of the
+        previous one, scaled by the ratio of dofs, would take the ladder past it.
+    """
+
+    tolerance: float | None = None
+    max_level: int = DEFAULT_MAX_LEVEL
+    max_memory_gb: float = math.inf
+    max_time_s: float = math.inf
+
+
+@dataclass(frozen=True)
+class LevelRun:
+    """What a runner returns for one level: the ladder's quantity (mu_s, or A_r/A_n for a
+    normal-only run) [-], the size of the level's problem (reduced dofs, hexahedra) [-], and
+    optionally ``save(ladder)``, called once the ladder including this level is known (to write
+    the level's results with the estimate)."""
+
+    value: float
+    reduced_dofs: int
+    cells: int
+    save: Callable | None = None
+
+
+@dataclass(frozen=True)
+class Level:
+    """One finished level: its number, refinement factor [-], quantity [-], reduced dofs and
+    hexahedra [-], and wall time (mesh, preload and sliding) [s]."""
+
+    level: int
+    factor: int
+    value: float
+    reduced_dofs: int
+    cells: int
+    wall_s: float
+
+
+@dataclass(frozen=True)
+class Ladder:
+    """A finished ladder.
+
+    Attributes
+    ----------
+    key : str
+        The quantity: ``mu_s``, or ``area_ratio_normal`` for normal-only runs.
+    levels : tuple of Level
+        Coarse to fine.
+    estimate : ErrorEstimate or None
+        From the last three levels where there are three, else the last two (None with one).
+    limits : LadderLimits
+        What it was allowed.
+    stopped : str
+        Why no finer level was run ("" when the tolerance was met or all levels ran).
+    """
+
+    key: str
+    levels: tuple
+    estimate: ErrorEstimate | None
+    limits: LadderLimits
+    stopped: str = ""
+
+    @property
+    def met(self) -> bool:
+        """The finest value's estimated relative error is within the tolerance (True without
+        a tolerance once there is an estimate)."""
+        if self.estimate is None:
+            return False
+        tolerance = self.limits.tolerance
+        return tolerance is None or self.estimate.relative_error <= tolerance
+
+    def summary(self) -> dict:
+        """The quantity of the finest level with its error (``<key>_error``,
+        ``<key>_extrapolated``, ``<key>_coarse``: the level before), the order used, the
+        tolerance and the per-level columns (``levels``)."""
+        key, estimate = self.key, self.estimate
+        columns = {"factor": [], "reduced_dofs": [], "cells": [], key: [], "wall_s": []}
+        for level in self.levels:
+            for name, value in (("factor", level.factor), ("reduced_dofs", level.reduced_dofs),
+                                ("cells", level.cells), (key, level.value),
+                                ("wall_s", level.wall_s)):
+                columns[name].append(value)
+        values = columns[key]
+        return {
+            key: values[-1],
+            f"{key}_error": estimate.error if estimate else None,
+            f"{key}_extrapolated": estimate.extrapolated if estimate else None,
+            f"{key}_coarse": values[-2] if len(values) > 1 else None,
+            "error_order": estimate.order if estimate else None,
+            "error_order_observed": estimate.observed if estimate else False,
+            "error_levels_used": len(estimate.values) if estimate else 0,
+            "error_tolerance": self.limits.tolerance,
+            "error_tolerance_met": self.met,
+            "error_stopped": self.stopped,
+            "levels": columns,
+        }
+
+    def shortfall(self) -> str:
+        """One line: the best estimate and why the tolerance was not met (or, without a
+        tolerance, why there is no estimate)."""
+        finest = self.levels[-1]
+        if self.estimate is None:
+            best = f"{self.key} = {finest.value:.4g} with no error estimate (one level)"
+        else:
+            kind = "observed" if self.estimate.observed else "assumed"
+            best = (f"{self.key} = {finest.value:.4g} +- {self.estimate.error:.2g} "
+                    f"({100 * self.estimate.relative_error:.3g} %, {kind} order "
+                    f"{self.estimate.order:.3g}) at {finest.factor}x")
+        tolerance = self.limits.tolerance
+        goal = (f"tolerance {100 * tolerance:.3g} % not met" if tolerance is not None
+                else "no error estimate")
+        return f"{goal}: {best}; {self.stopped}"
+
+
+def ladder_estimate(values) -> ErrorEstimate | None:
+    """:func:`richardson` of the last three values where there are three, the last two where
+    there are two, None with fewer."""
+    values = list(values)
+    return richardson(values[-3:]) if len(values) >= 2 else None
+
+
+def level_refused(case: FemCase, last: Level, elapsed_s: float, limits: LadderLimits,
+                  memory_gb: Callable[[FemCase], float]) -> str:
+    """Why the level after ``last`` (case ``case``) may not run, or "" if it may: the level
+    limit, its estimated memory ``memory_gb(case)`` [GB], or its time predicted as the last
+    level's wall time times the ratio of reduced dofs [s]."""
+    level = last.level + 1
+    factor = LADDER_RATIO**level
+    if level > limits.max_level:
+        return f"the finest level allowed ({LADDER_RATIO**limits.max_level}x, --max-level " \
+               f"{limits.max_level}) is reached"
+    needed = memory_gb(case)
+    if needed > limits.max_memory_gb:
+        return (f"the {factor}x level needs about {needed:.3g} GB, {limits.max_memory_gb:.3g} "
+                "GB are allowed (--max-memory, or what is available)")
+    predicted = last.wall_s * mesh_size(case.surface.n, case.mesh)[1] / last.reduced_dofs
+    if elapsed_s + predicted > limits.max_time_s:
+        return (f"the {factor}x level would take about {predicted / 60:.3g} min after "
+                f"{elapsed_s / 60:.3g} min, {limits.max_time_s / 60:.3g} min are allowed "
+                "(--max-time)")
+    return ""
+
+
+def run_ladder(case: FemCase, run_level: Callable[[int, FemCase], LevelRun],
+               limits: LadderLimits, memory_gb: Callable[[FemCase], float],
+               clock: Callable[[], float] = time.perf_counter) -> Ladder:
+    """Run levels 0, 1, ... (:func:`level_case`) until the estimated relative error of the
+    finest value is within ``limits.tolerance`` (without a tolerance: through
+    ``limits.max_level``), or a limit refuses the next level (:func:`level_refused`).
+
+    Parameters
+    ----------
+    case : FemCase
+        Level 0.
+    run_level : callable
+        ``run_level(level, level_case)`` runs one level and returns its :class:`LevelRun`.
+    limits : LadderLimits
+        Tolerance and limits.
+    memory_gb : callable
+        Estimated peak memory of a case's run, summed over ranks [GB].
+    clock : callable
+        Wall clock [s].
+    """
+    key = "area_ratio_normal" if case.loading.normal_only else "mu_s"
+    started = clock()
+    levels: list[Level] = []
+    current = level_case(case, 0)
+    while True:
+        level, mark = len(levels), clock()
+        outcome = run_level(level, current)
+        levels.append(Level(level, LADDER_RATIO**level, outcome.value, outcome.reduced_dofs,
+                            outcome.cells, clock() - mark))
+        estimate = ladder_estimate(v.value for v in levels)
+        ladder = Ladder(key, tuple(levels), estimate, limits)
+        done = ladder.met if limits.tolerance is not None else level >= limits.max_level
+        if not done:
+            current = level_case(case, level + 1)
+            stopped = level_refused(current, levels[-1], clock() - started, limits, memory_gb)
+            ladder = replace(ladder, stopped=stopped)
+        if outcome.save is not None:
+            outcome.save(ladder)
+        outcome = None  # the level's model is freed before the next one is built
+        if done or ladder.stopped:
+            return ladder

@@ -127,8 +127,9 @@ def save_run(path: Path, case: FemCase, fem_run, comm, note: str = "",
         How the run was obtained, if not the usual way (e.g. on a standalone path after its
         shared normal path failed, see :mod:`roughfriction.studies.cache`).
     extra : dict, optional
-        Added to the summary (``fem``: the psi of the meshed surface; with ``--refine`` the
-        discretisation error estimate).
+        Added to the summary (``fem``: the psi of the meshed surface; with ``--tol`` or
+        ``--refine`` the discretisation error estimate and the per-level columns ``levels``,
+        :meth:`studies.refinement.Ladder.summary`).
     """
     def write() -> None:
         if comm.rank == 0:

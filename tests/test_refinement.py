@@ -3,8 +3,17 @@
 import numpy as np
 import pytest
 from roughfriction.case import FemCase, Loading
+from roughfriction.geometry.mesh import blend_layers_needed, mesh_size
 from roughfriction.geometry.surface import Surface
-from roughfriction.studies.refinement import refined_case, richardson
+from roughfriction.studies.refinement import (
+    ASSUMED_ORDER,
+    LadderLimits,
+    LevelRun,
+    level_case,
+    refined_case,
+    richardson,
+    run_ladder,
+)
 
 
 def test_two_meshes_assume_first_order():
@@ -42,10 +51,9 @@ def test_refined_case_samples_the_same_bilinear_surface():
 
 
 @pytest.mark.fem
-def test_a_refined_case_deepens_the_blend_where_its_thinner_layers_would_distort():
-    """A valley 1.25 h deep meshes with 2 blend layers of thickness h, but not with 2 of h/2:
-    the refined case takes the 3 it needs, and meshes; a case already deep enough keeps its
-    count."""
+def test_a_refined_case_keeps_a_blend_deep_enough_for_its_thinner_layers():
+    """A valley 1.25 h deep meshes with 2 blend layers of thickness h, but not with 2 of h/2
+    (it needs 3): the refined case takes 4, the same depth, and meshes."""
     from mpi4py import MPI
     from roughfriction.errors import InputError
     from roughfriction.solver.block import build_block
@@ -55,10 +63,111 @@ def test_a_refined_case_deepens_the_blend_where_its_thinner_layers_would_distort
     heights[3, 4] = -1.25 * spacing
     case = FemCase(Surface(heights, spacing, "valley"), Loading(0.1))
     fine = refined_case(case, 2)
-    assert case.mesh.blend_layers == 2 and fine.mesh.blend_layers == 3
+    assert case.mesh.blend_layers == 2 and fine.mesh.blend_layers == 4
     build_block(case.surface.heights, spacing, case.mesh, MPI.COMM_SELF)
     build_block(fine.surface.heights, fine.surface.spacing, fine.mesh, MPI.COMM_SELF)
     with pytest.raises(InputError, match="needs >= 3 blend layers"):
         build_block(fine.surface.heights, fine.surface.spacing, case.mesh, MPI.COMM_SELF)
-    shallow = FemCase(Surface(0.2 * heights, spacing, "valley"), Loading(0.1))
-    assert refined_case(shallow, 2).mesh.blend_layers == 2
+
+
+@pytest.mark.parametrize("factor", [2, 4, 8])
+@pytest.mark.parametrize("valley_depth", [0.2, 1.25, 4.0])  # [grid spacings h]
+def test_the_blend_zone_has_the_same_physical_depth_on_every_level(factor, valley_depth):
+    """The roughness fades over the same depth on every mesh of a ladder (the levels converge
+    to one continuum problem): factor x the layers the case meshes, each h / factor thick; a
+    valley deeper than the case's own layers (4 h needs 5 of h) sets the count to scale."""
+    spacing = 1e-6
+    heights = np.zeros((8, 8))
+    heights[3, 4] = -valley_depth * spacing
+    case = FemCase(Surface(heights, spacing, "valley"), Loading(0.1))
+    meshed = max(case.mesh.blend_layers, blend_layers_needed(heights, spacing))
+    fine = refined_case(case, factor)
+    depth = fine.mesh.blend_layers * fine.surface.spacing
+    assert depth == pytest.approx(meshed * spacing)
+    assert fine.mesh.blend_layers >= blend_layers_needed(fine.surface.heights,
+                                                         fine.surface.spacing)
+    assert [level_case(case, level).surface.n for level in range(4)] == [8, 16, 32, 64]
+
+
+# --- the ladder of levels (run_ladder), with a power-law runner instead of the FEM ------------
+
+#: Wall time of the fake runner per reduced dof [s].
+SECONDS_PER_DOF = 1e-3
+
+
+def power_law_runner(exact=0.2, constant=0.1, order=2.0):
+    """A runner whose value on level k is exact + constant (2^-k)^order, with the level's
+    real mesh size, taking SECONDS_PER_DOF per dof on its clock; it records the levels it ran
+    and the ladders it was saved with."""
+    ran, saved, now = [], [], [0.0]
+
+    def run_level(level, level_case):
+        ran.append((level, level_case.surface.n))
+        cells, dofs = mesh_size(level_case.surface.n, level_case.mesh)
+        now[0] += SECONDS_PER_DOF * dofs
+        return LevelRun(exact + constant * 0.5**(order * level), dofs, cells, save=saved.append)
+    return run_level, ran, saved, lambda: now[0]
+
+
+CASE = FemCase(Surface(np.random.default_rng(1).normal(size=(4, 4)) * 1e-7, 1e-6, "s"),
+               Loading(0.155))
+
+
+def test_the_ladder_stops_at_the_first_level_within_the_tolerance():
+    run_level, ran, saved, clock = power_law_runner()
+    ladder = run_ladder(CASE, run_level, LadderLimits(tolerance=0.05), lambda case: 1.0, clock)
+    assert [n for _, n in ran] == [4, 8, 16]  # 1x, 2x, 4x of the same surface
+    assert ladder.met and ladder.estimate.observed
+    assert ladder.estimate.order == pytest.approx(2.0)
+    summary = ladder.summary()
+    assert summary["mu_s"] == pytest.approx(0.2 + 0.1 / 16)
+    assert summary["mu_s_error"] == pytest.approx(0.1 / 16)  # exact for a power law
+    assert summary["mu_s_coarse"] == pytest.approx(0.2 + 0.1 / 4)
+    assert summary["levels"]["factor"] == [1, 2, 4]
+    dofs = [mesh_size(level_case(CASE, level).surface.n, level_case(CASE, level).mesh)[1]
+            for level in range(3)]
+    assert summary["levels"]["reduced_dofs"] == dofs
+    assert summary["levels"]["wall_s"] == pytest.approx([SECONDS_PER_DOF * d for d in dofs])
+    assert summary["error_levels_used"] == 3 and summary["error_tolerance_met"]
+    # each level is saved once, with the ladder as it stood when the level finished
+    assert [len(ladder.levels) for ladder in saved] == [1, 2, 3]
+    assert saved[0].summary()["mu_s_error"] is None
+
+
+def test_two_levels_use_the_assumed_order_and_say_so():
+    run_level, _, _, _ = power_law_runner(order=1.0)
+    ladder = run_ladder(CASE, run_level, LadderLimits(tolerance=0.3), lambda case: 1.0)
+    assert len(ladder.levels) == 2 and ladder.met
+    assert not ladder.estimate.observed and ladder.estimate.order == ASSUMED_ORDER
+    assert ladder.summary()["error_order_observed"] is False
+
+
+def test_without_a_tolerance_the_ladder_runs_to_its_level_the_refine_shortcut():
+    run_level, ran, _, _ = power_law_runner()
+    ladder = run_ladder(CASE, run_level, LadderLimits(max_level=1), lambda case: 1.0)
+    assert len(ran) == 2 and ladder.met and ladder.stopped == ""
+
+
+def dofs_through(level):
+    """Reduced dofs of CASE's levels 0..level together."""
+    return sum(mesh_size(level_case(CASE, k).surface.n, level_case(CASE, k).mesh)[1]
+               for k in range(level + 1))
+
+
+@pytest.mark.parametrize(("limits", "reason"), [
+    (LadderLimits(tolerance=1e-4, max_level=2), "--max-level 2"),
+    (LadderLimits(tolerance=1e-4, max_memory_gb=5.0), "the 8x level needs about 8 GB"),
+    (LadderLimits(tolerance=1e-4, max_time_s=SECONDS_PER_DOF * (dofs_through(2) + dofs_through(3))
+                  / 2), "the 8x level would take about"),
+])
+def test_a_limit_stops_the_ladder_short_of_the_tolerance_with_its_reason(limits, reason):
+    """Memory: 8 GB at 8x, 1 GB at 4x; time: the 8x level is predicted from the 4x one's
+    wall time scaled by dofs, which the fake runner makes exact."""
+    run_level, ran, saved, clock = power_law_runner()
+    ladder = run_ladder(CASE, run_level, limits, lambda case: (case.surface.n / 16)**3, clock)
+    assert not ladder.met and reason in ladder.stopped
+    assert len(ran) == 3  # the 8x level was refused before it started
+    assert saved[-1].stopped == ladder.stopped  # the file of the last level says why
+    line = ladder.shortfall()
+    assert line.startswith("tolerance 0.01 % not met: mu_s = ") and "at 4x" in line
+    assert "observed order 2" in line and "\n" not in line

@@ -82,10 +82,23 @@ def test_case_file_and_unconverged_run(rough_file, tmp_path, capsys):
     ([], "normal load is required"),
     (["--load", "0.3", "--n", "2"], ">= 4"),
     (["--load", "0.3", "--n", "100000"], "GB are available"),  # refused before allocating
+    (["--load", "0.3", "--max-time", "5"], "--max-time limits --tol: give a tolerance"),
+    (["--load", "0.3", "--refine", "--tol", "0.1"], "give --tol (with its limits) or --refine"),
 ])
 def test_bad_command_lines(rough_file, argv, message, capsys):
     assert main([str(rough_file), "--size", "7um", *argv]) != 0
     assert message in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["--tol", "1.5"], "a relative error below 1"),
+    (["--tol", "0.1", "--max-level", "0"], "an estimate needs two levels"),
+    (["--tol", "0.1", "--max-memory", "-2"], "must be a finite number > 0"),
+])
+def test_bad_tolerances_and_limits_are_command_line_errors(rough_file, argv, message, capsys):
+    with pytest.raises(SystemExit) as stop:
+        main([str(rough_file), "--size", "7um", "--load", "0.3", *argv])
+    assert stop.value.code == 2 and message in capsys.readouterr().err
 
 
 def test_unknown_case_file_keys(rough_file, tmp_path, capsys):
@@ -161,6 +174,22 @@ def test_refine_reports_the_finer_mesh_with_an_error_estimate(tmp_path, capsys):
 
 
 @pytest.mark.fem
+def test_a_normal_only_tolerance_applies_to_the_contact_area(rough_file, tmp_path):
+    """The ladder's quantity is A_r/A_n (1x and 2x; met or not, the file says)."""
+    output = tmp_path / "area.h5"
+    code = main([str(rough_file), "--size", "7um", "--load", "0.3", "--elastic", "--normal-only",
+                 "--tol", "0.1", "--max-level", "1", "--output", str(output)])
+    with h5py.File(output) as h5:
+        summary = json.loads(h5.attrs["summary"])
+    assert code == (0 if summary["error_tolerance_met"] else 3)
+    levels = summary["levels"]
+    assert summary["mu_s"] is None and levels["factor"] == [1, 2]
+    assert levels["area_ratio_normal"][-1] == summary["area_ratio_normal"]
+    assert summary["area_ratio_normal_error"] == pytest.approx(
+        abs(levels["area_ratio_normal"][1] - levels["area_ratio_normal"][0]))
+
+
+@pytest.mark.fem
 def test_window_meshes_the_surface_at_its_own_spacing(tmp_path, capsys):
     """G5 (i.i.d., psi 13.2) on 8 x 8 cells: a window keeps its psi, a re-grid is smoother and
     says so on stderr."""
@@ -226,6 +255,7 @@ def test_default_names_tell_apart_what_defines_a_run():
                 replace(plain, solver=SolverOptions(penalty=20.0))]
     names = [default_output(case) for case in variants]
     names.append(default_output(plain, ("refined",)))
+    names.append(default_output(plain, ("tol0.03_L3",)))
     assert len(set(names)) == len(names)
     assert all(name.name.startswith("G5_F0.3_N8_") for name in names)
     same = FemCase(surface_on_fem_grid(builtin_surface("G5"), 8), Loading(0.3))
