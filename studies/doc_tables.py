@@ -8,8 +8,9 @@ A generated block in a Markdown file is delimited by two HTML comments::
 
 The text after ``make docs:`` names the table (see :data:`TABLES`); everything between the
 two comments is replaced by that table, so running it again changes nothing.
-``python -m roughfriction.studies.doc_tables`` (``make docs``) rewrites README.md and
-docs/benchmarks.md in place; ``--check`` only reports blocks that are out of date (exit 1).
+``python -m roughfriction.studies.doc_tables`` (``make docs``) rewrites README.md,
+docs/benchmarks.md and docs/verification.md in place; ``--check`` only reports blocks that
+are out of date (exit 1).
 """
 
 from __future__ import annotations
@@ -28,7 +29,7 @@ from roughfriction.errors import InputError
 from roughfriction.files import atomic_write
 
 #: Files whose generated blocks ``make docs`` rewrites (relative to the repository root).
-DOCUMENTS = ("README.md", "docs/benchmarks.md")
+DOCUMENTS = ("README.md", "docs/benchmarks.md", "docs/verification.md")
 #: Directory of the committed benchmark results (relative to the repository root).
 BENCH_DIRECTORY = "docs/bench"
 
@@ -183,6 +184,25 @@ def profile_table(bench: Path) -> str:
                            "Krylov its per solve"], table)
 
 
+def calibration_table(bench: Path) -> str:
+    """`make bench-calibration`: the --tol error estimate of mu_s against an 8x uniform
+    reference, per window, load and number of levels (calibration.csv)."""
+    table = []
+    for row in read_rows(bench / "calibration.csv"):
+        ladder = " / ".join(f"{float(row[key]):.4f}" for key in ("mu_1x", "mu_2x", "mu_4x"))
+        order = f"{float(row['order']):.2g}" + (" (observed)" if row["order_observed"] == "True"
+                                                else " (assumed)")
+        table.append([f"{row['surface']} window {row['window']}, {row['n']}²",
+                      row["load_star"], ladder, f"{float(row['mu_reference']):.4f}",
+                      row["levels_used"], order, f"{float(row['mu_s']):.4f}",
+                      f"{float(row['mu_s_error']):.4f}", f"{float(row['actual_error']):.4f}",
+                      "yes" if row["covered"] == "True" else "**no**",
+                      "yes" if row["sharp"] == "True" else "**no**"])
+    return markdown_table(["window", "F*", "μ_s 1x / 2x / 4x", "8x reference", "levels",
+                           "order", "μ_s", "μ_s_error", "actual error", "covered", "sharp"],
+                          table)
+
+
 PROFILE_PHASES = ("linear solves", "reduced tangent", "residual assembly", "stress update",
                   "contact law")
 
@@ -194,6 +214,7 @@ TABLES: dict[str, Callable[[Path], str]] = {
     "figures_n128.csv": figures_table,
     "error.csv": error_table,
     "stress.csv": stress_table,
+    "calibration.csv": calibration_table,
     "profile_*.json": profile_table,
 }
 
