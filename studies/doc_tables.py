@@ -203,6 +203,17 @@ def calibration_table(bench: Path) -> str:
                           table)
 
 
+def memory_table(bench: Path) -> str:
+    """`roughfriction bench profile` memory: kB per reduced dof by object and in total, before
+    and after the memory cuts (memory.csv)."""
+    rows = [row for row in read_rows(bench / "memory.csv") if row["kind"] in ("object", "total")]
+    per_dof = {(row["version"], row["item"]): row["kb_per_dof"] for row in rows}
+    items = list(dict.fromkeys(row["item"] for row in rows))
+    table = [[item, per_dof.get(("before", item), "–") or "–",
+              per_dof.get(("after", item), "–") or "–"] for item in items]
+    return markdown_table(["object", "kB per dof (before)", "kB per dof (today)"], table)
+
+
 PROFILE_PHASES = ("linear solves", "reduced tangent", "residual assembly", "stress update",
                   "contact law")
 
@@ -215,6 +226,7 @@ TABLES: dict[str, Callable[[Path], str]] = {
     "error.csv": error_table,
     "stress.csv": stress_table,
     "calibration.csv": calibration_table,
+    "memory.csv": memory_table,
     "profile_*.json": profile_table,
 }
 
