@@ -22,7 +22,7 @@ from pathlib import Path
 from roughfriction import __version__
 from roughfriction.errors import ConvergenceError, InputError
 from roughfriction.material import Material
-from roughfriction.scripts.surface_args import surface_from_args
+from roughfriction.scripts.surface_args import positive_float, surface_from_args
 
 EXIT_INPUT_ERROR = 2
 #: Exit status of a FEM run that did not converge.
@@ -86,17 +86,6 @@ def emit(record: dict, as_json: bool) -> None:
             print(f"\n{key}")
             for line in _section_lines(value):
                 print(f"  {line}")
-
-
-def positive_float(text: str) -> float:
-    """argparse type: a finite number > 0."""
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
-    if not (math.isfinite(value) and value > 0):
-        raise argparse.ArgumentTypeError(f"must be a finite number > 0, got {text}")
-    return value
 
 
 def add_surface_arguments(parser: argparse.ArgumentParser) -> None:

@@ -111,7 +111,7 @@ def add_fem_arguments(parser: argparse.ArgumentParser) -> None:
 
 def _positive(text: str) -> float:
     """argparse type: a finite number > 0."""
-    from roughfriction.scripts.cli import positive_float
+    from roughfriction.scripts.surface_args import positive_float
 
     return positive_float(text)
 

@@ -4,6 +4,9 @@ the subcommands (``roughfriction.scripts.cli``) and the ``fem`` command
 
 from __future__ import annotations
 
+import argparse
+import math
+
 from roughfriction.errors import InputError
 
 #: The reader flags (argparse dest -> flag) that apply to files only, with their unset values.
@@ -35,3 +38,14 @@ def surface_from_args(args):
         pixels="resample" if args.resample_pixels else None,
         detrend=not args.no_detrend,
     )
+
+
+def positive_float(text: str) -> float:
+    """argparse type: a finite number > 0."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+    if not (math.isfinite(value) and value > 0):
+        raise argparse.ArgumentTypeError(f"must be a finite number > 0, got {text}")
+    return value
