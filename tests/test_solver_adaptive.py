@@ -86,7 +86,6 @@ def test_the_all_zone_run_reproduces_the_uniformly_refined_run():
 
 @pytest.mark.mpi
 @pytest.mark.fem
-@BLEND_LAYERING_DIFFERS
 def test_the_all_zone_run_reproduces_the_uniformly_refined_run_across_ranks():
     """The same on 2 ranks: hanging-node ties and slab partition of the adaptive block."""
     case = gentle_case(normal_only=True)
