@@ -116,15 +116,13 @@ bench-path: setup
 	@$(VENV)/bin/roughfriction bench path --n $(PATH_N) --ranks $(NP) --case $(BENCH_CASES)
 	@mkdir -p docs/bench && cp results/bench/path.csv docs/bench/
 
-# Run time against error (studies/convergence.py): G5 at F* = 0.155 and 0.93, 2L at 0.5 and the
-# elastic sinusoid, at N = 16, 32, 64, 128, each surface but the finest on a 2x finer mesh and
-# each knob alone at N = $(N), through the run cache on $(NP) ranks ->
-# results/bench/error.{csv,png}, copied to docs/bench/.
-# `make bench-error ERROR_SIZES="16 32 64"`: a shorter sweep.
-# `make bench-error-quick`: the same at N = 8 and 16, to results/bench/quick/ (not copied).
-ERROR_SIZES ?= 16 32 64 128
+# Run time against error (studies/convergence.py): G5 at F* = 0.155 and 0.93, 2L at 0.5 and G1
+# at 1.86 on their own 128^2 grids, on mesh levels $(ERROR_LEVELS) (1x, 2x) and with each knob
+# alone on 1x, through the run cache on $(NP) ranks -> results/bench/error.{csv,png}, copied to
+# docs/bench/. `make bench-error-quick`: the same on 16^2 windows, to results/bench/quick/.
+ERROR_LEVELS ?= 0 1
 bench-error: setup
-	@$(MPIRUN) $(VENV)/bin/roughfriction bench error --base-n $(N) --sizes $(ERROR_SIZES)
+	@$(MPIRUN) $(VENV)/bin/roughfriction bench error --levels $(ERROR_LEVELS)
 	@mkdir -p docs/bench && cp results/bench/error.csv results/bench/error.png docs/bench/
 
 bench-error-quick: setup

@@ -53,12 +53,13 @@ def add_bench_commands(bench) -> None:
     error = kinds.add_parser("error", help="run time against error (run under mpirun) -> "
                              f"{BENCH_DIR / 'error.csv'}, error.png")
     error.add_argument("--quick", action="store_true",
-                       help=f"sizes {convergence.QUICK_SIZES}, knobs at N = "
-                       f"{convergence.QUICK_BASE_N}; output to {BENCH_DIR / 'quick'}")
-    error.add_argument("--sizes", type=int, nargs="+", metavar="N",
-                       help=f"resolutions of the sweep (default {convergence.SIZES})")
-    error.add_argument("--base-n", type=int, metavar="N",
-                       help=f"resolution of the knob variants (default {convergence.BASE_N})")
+                       help=f"{convergence.QUICK_N}^2 windows, levels {convergence.QUICK_LEVELS}; "
+                       f"output to {BENCH_DIR / 'quick'}")
+    error.add_argument("--n", type=int, metavar="N",
+                       help=f"surface cells per side (default {convergence.BASE_N}, the "
+                       "paper's surfaces on their own grid)")
+    error.add_argument("--levels", type=int, nargs="+", metavar="K",
+                       help=f"mesh levels, 0 the surface's grid (default {convergence.LEVELS})")
     error.add_argument("--output", metavar="DIR", help="where error.csv and error.png go")
     error.add_argument("--runs", metavar="DIR", help="run cache directory")
     error.add_argument("--plan", action="store_true",
@@ -139,11 +140,10 @@ def cmd_bench_error(args) -> dict:
     from roughfriction.studies import convergence
     from roughfriction.studies.batch import batch_plan
 
-    sizes, base_n, output = convergence.SIZES, convergence.BASE_N, BENCH_DIR
+    n, levels, output = convergence.BASE_N, convergence.LEVELS, BENCH_DIR
     if args.quick:
-        sizes, base_n, output = (convergence.QUICK_SIZES, convergence.QUICK_BASE_N,
-                                 BENCH_DIR / "quick")
-    plan = convergence.ErrorPlan(sizes=tuple(args.sizes or sizes), base_n=args.base_n or base_n)
+        n, levels, output = convergence.QUICK_N, convergence.QUICK_LEVELS, BENCH_DIR / "quick"
+    plan = convergence.ErrorPlan(n=args.n or n, levels=tuple(args.levels or levels))
     output = Path(args.output) if args.output else output
     if args.plan:
         return {"plan": batch_plan([fem for _, _, fem in convergence.benchmark_runs(plan)],

@@ -38,7 +38,11 @@ BENCH_DIR = Path("results/bench")
 #: areas and growth [-], wall time [s]).
 SUMMARY_COLUMNS = ("converged", "mu_s", "area_ratio_normal", "area_ratio_sliding",
                    "junction_growth", "contact_nodes", "contact_patches", "nodes_per_patch",
-                   "cells_per_patch", "reliable", "steps", "cut_steps", "newton_iterations")
+                   "cells_per_patch", "reliable", "steps", "cut_steps", "newton_iterations",
+                   "cpu_share")
+#: Least CPU share (``studies.cache.CpuShare``) of a run whose wall time counts as measured on
+#: a quiet machine [-].
+QUIET_CPU_SHARE = 0.9
 
 
 @dataclass(frozen=True)

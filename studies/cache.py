@@ -398,14 +398,39 @@ class RunsNotStarted(InputError):
                          + "; ".join(f"{label}: {why}" for label, why in failed.items()))
 
 
+class CpuShare:
+    """CPU time of this process over wall time since the last reading, least over the ranks
+    [-]: about 1 on a quiet machine with a core per rank (a waiting MPI rank polls), less when
+    other work took the cores, and then the run's wall times overstate its cost. Recorded as
+    ``cpu_share`` in each run's summary; the benchmarks flag runs below
+    :data:`studies.batch.QUIET_CPU_SHARE`."""
+
+    def __init__(self, comm):
+        self.comm = comm
+        self.restart()
+
+    def restart(self) -> None:
+        self.cpu_s, self.wall_s = time.process_time(), time.perf_counter()
+
+    def take(self) -> float:
+        """The share since the last reading (collective: call on every rank)."""
+        share = (time.process_time() - self.cpu_s) / max(time.perf_counter() - self.wall_s,
+                                                          1e-9)
+        self.restart()
+        return min(self.comm.allgather(share))
+
+
 def _compute_group(group: RunGroup, comm, reporter: RunReporter) -> None:
     """Run one group, writing each entry as soon as its run ends; then free its PETSc objects
     (:func:`release`). A run past the first that failed on the shared normal path
     is run again alone (:func:`_compute_alone`)."""
     from roughfriction.solver.run import run_loads
 
+    cpu = CpuShare(comm)
+
     def finished(index, fem_run):
-        save_run(group.paths[index], group.cases[index], fem_run, comm)
+        save_run(group.paths[index], group.cases[index], fem_run, comm,
+                 extra={"cpu_share": cpu.take()})
         reporter.finished(fem_run.result.summary())
         if index + 1 < len(group.cases):
             reporter.begin(group.cases[index + 1])
@@ -431,10 +456,12 @@ def _compute_alone(case: FemCase, path: Path, message: str, comm,
     from roughfriction.solver.run import run_loads
 
     note = f"computed alone: on the shared normal path it failed ({message})"
+    cpu = CpuShare(comm)
 
     def finished(index, fem_run):
+        share = cpu.take()
         if fem_run.result.converged:
-            save_run(path, case, fem_run, comm, note=note)
+            save_run(path, case, fem_run, comm, note=note, extra={"cpu_share": share})
         reporter.finished(fem_run.result.summary())
 
     reporter.again(case, "shared normal path failed; running it alone")

@@ -1,35 +1,31 @@
-"""Run time against error of the FEM (``make bench-error``, part of ``make bench``).
+"""Run time against error of the FEM on the paper's surfaces (``make bench-error``).
 
-    mpirun -n 2 roughfriction bench error              # the tables below
-    mpirun -n 2 roughfriction bench error --quick      # N = 8 and 16 only
+    mpirun -n 2 roughfriction bench error              # the four cases on their 128^2 grids
+    mpirun -n 2 roughfriction bench error --quick      # the same on 16^2 windows
     roughfriction bench error --plan                   # the runs, without computing them
 
-Cases (:data:`CASES`): G5 at F* = 0.155 and 0.93, the 2L stand-in at F* = 0.5, and an elastic
-single sinusoid pressed to 1.4 p* (complete contact: closed form p* = sqrt(2) pi E' Delta /
-lambda and A_r/A_n = 1). Each case is run
+Cases (:data:`CASES`): G5 at F* = 0.155 and 0.93, the 2L stand-in at F* = 0.5 and G1 at
+F* = 1.86, each on its own 128 x 128 grid (:func:`studies.paper.fem_surface`). Each case is run
 
-* at every resolution of :data:`SIZES` (the built-in 128^2 surface re-gridded to N x N, as
-  ``--n N`` does: a coarser N is a smoother surface, not only a coarser mesh);
-* with each surface of the sweep but the finest spectrally interpolated onto the next finer
-  grid (the same surface on a 2x finer mesh: the mesh error alone, at every N);
-* with each knob of :data:`VARIANTS` changed alone from the defaults, at :data:`BASE_N`.
+* on the mesh ladder :data:`LEVELS`: level 0 is the surface's own grid (the default), level k
+  the same bilinear surface on a 2^k times finer mesh (:func:`studies.refinement.level_case`);
+* with each knob of :data:`KNOBS` changed alone from the defaults, on level 0.
 
-Every run is a :class:`~roughfriction.case.FemCase` through the run cache (``results/runs``): a
-rerun computes nothing, and runs are shared with the figures. All ranks compute; rank 0 writes.
+The reference of a case is its finest level that converged; its own error is estimated from
+the ladder (:func:`studies.refinement.richardson`: two levels at the assumed order, three at
+the observed one) and written beside it (``reference_error``, relative). Every run is a
+:class:`~roughfriction.case.FemCase` through the run cache (``results/runs``): a rerun computes
+nothing. All ranks compute; rank 0 writes.
 
-Errors (rank 0): of mu_s, A_r/A_n (under the normal load) and junction growth, against the
-reference of the case (the finest run of :data:`SIZES` that converged, named in the table; for
-the sinusoid the closed form, also for p*) and against each run's comparator (a knob variant:
-the defaults at the same N; a resolution N: the run at 2N; the spectral run: the run of its
-coarse surface). Relative errors
-for mu_s, A_r/A_n and p*, differences for the junction growth. Wall time (``total_s`` of the
-results file) and peak memory (summed over the ranks) come from the results files.
+Errors (rank 0), relative for mu_s and A_r/A_n (under the normal load), differences for the
+junction growth: against the case's reference (``*_error``) and against the run's comparator
+(``*_change``: a knob against the defaults, a level against the next coarser one). Wall time
+(``total_s``) and peak memory (summed over the ranks) come from the results files, and so does
+``version``, the code that computed the run.
 
-Output: ``results/bench/error.csv`` and ``error.png`` (wall time against the mu_s error, p* for
-the sinusoid, with each case's Pareto front and the chosen defaults marked; ``--quick`` writes
-to ``results/bench/quick/``), and the resolution check on stdout: the default N is the smallest
-N of the sweep from which on every doubling changes mu_s by at most :data:`MU_S_TOLERANCE` in
-every sliding case.
+Output: ``error.csv`` and ``error.png`` (wall time against |mu_s error|, a panel per case, the
+Pareto front dashed, the defaults starred) in ``results/bench/`` (``--quick``:
+``results/bench/quick/``), and the frontier on stdout.
 """
 
 from __future__ import annotations
@@ -39,11 +35,8 @@ from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
 
-import numpy as np
-from roughfriction.case import FemCase, Loading, SolverOptions
+from roughfriction.case import FemCase
 from roughfriction.files import atomic_write
-from roughfriction.geometry.surface import Surface
-from roughfriction.material import Material
 from roughfriction.studies.batch import (
     cached_batch,
     compute_batch,
@@ -51,46 +44,25 @@ from roughfriction.studies.batch import (
     summary_columns,
     write_text,
 )
+from roughfriction.studies.refinement import LADDER_RATIO, level_case, richardson
 
 # --- what is run -----------------------------------------------------------------------------
 
-#: Surface cells per side of the resolution sweep [-].
-SIZES = (16, 32, 64, 128)
-#: Resolution at which the knobs of VARIANTS are varied [-] (the figures' default, so that the
-#: default runs are shared with them).
-BASE_N = 32
-#: Knobs changed one at a time from the defaults at BASE_N: (options table, option, values).
-VARIANTS = (
-    ("mesh", "blend_layers", (4, 8)),  # default 2
-    ("mesh", "fine_layers", (4, 8)),  # full-resolution layers, default 2
-    ("mesh", "coarsen", (False,)),  # 2:1 coarsened levels below them, default on
-    ("mesh", "depth", (0.5, 2.0)),  # base depth in periods, default 1
-    ("solver", "integration", ("full",)),  # default "selective" (SRI)
-    ("solver", "first_slide", (0.005, 0.08)),  # tangential step size, default 0.02
-    ("solver", "residual_tolerance", (1e-4, 1e-8)),  # default 1e-6
-    ("solver", "penalty", (1.0, 100.0)),  # default 40 E'/h
+#: Surface cells per side: the paper's surfaces on their own grid [-].
+BASE_N = 128
+#: Mesh levels: 0 the surface's own grid, k a 2^k times finer mesh [-].
+LEVELS = (0, 1)
+#: Knobs changed one at a time from the defaults on level 0: (options table, option, values).
+KNOBS = (
+    ("solver", "first_slide", (0.08,)),  # first tangential increment, default 0.02
+    ("solver", "max_slide_increment", (0.5,)),  # largest tangential increment, default 0.25
+    ("solver", "max_preload_increment", (1.0,)),  # largest preload increment, default 0.5
+    ("solver", "residual_tolerance", (1e-4, 1e-8)),  # Newton tolerance, default 1e-6
+    ("mesh", "fine_layers", (1, 4)),  # full-resolution layers under the surface, default 2
+    ("mesh", "depth", (0.5,)),  # block depth in periods, default 1
 )
-#: Knobs without effect on a normal-only run (not run for the sinusoid).
-SLIDING_ONLY = ("first_slide",)
-#: --quick: the same knobs on small grids.
-QUICK_SIZES, QUICK_BASE_N = (8, 16), 8
-#: Largest change of mu_s under a doubling of N accepted for the default resolution [-].
-MU_S_TOLERANCE = 0.02
-
-#: The elastic sinusoid Delta cos(2 pi x / lambda) cos(2 pi y / lambda), lambda = the period.
-SINUSOID = "sinusoid"
-SINUSOID_PERIOD = 128e-6  # [m]
-SINUSOID_SLOPE = 5e-4  # Delta / lambda [-]
-SINUSOID_LOAD_RATIO = 1.4  # mean pressure / p* [-]: complete contact
-
-
-#: The paper's material (the default of every case).
-PAPER_MATERIAL = Material()
-
-
-def sinusoid_p_star(material: Material = PAPER_MATERIAL) -> float:
-    """Closed-form complete-contact pressure p* = sqrt(2) pi E' Delta / lambda [Pa]."""
-    return math.sqrt(2) * math.pi * material.E_star * SINUSOID_SLOPE
+#: --quick: the same on small windows, with one more level.
+QUICK_N, QUICK_LEVELS = 16, (0, 1, 2)
 
 
 @dataclass(frozen=True)
@@ -102,7 +74,7 @@ class ErrorCase:
     label : str
         Name in the tables.
     surface : str
-        A built-in surface name, or :data:`SINUSOID`.
+        A built-in surface name.
     load_star : float
         F* = F_n / (A_n S_y) [-].
     """
@@ -111,18 +83,12 @@ class ErrorCase:
     surface: str
     load_star: float
 
-    @property
-    def analytic(self) -> bool:
-        """The elastic sinusoid: normal load only, compared with its closed form."""
-        return self.surface == SINUSOID
-
 
 CASES = (
     ErrorCase("G5 F*=0.155", "G5", 0.155),
     ErrorCase("G5 F*=0.93", "G5", 0.93),
     ErrorCase("2L F*=0.5", "2L", 0.5),
-    ErrorCase("sinusoid 1.4p*", SINUSOID, SINUSOID_LOAD_RATIO * sinusoid_p_star()
-              / PAPER_MATERIAL.Sy),
+    ErrorCase("G1 F*=1.86", "G1", 1.86),
 )
 
 
@@ -133,93 +99,64 @@ class Variant:
     Attributes
     ----------
     knob : str
-        "n" (resolution), "spectral" (coarse surface on a finer grid) or "<table>.<option>".
+        "level" (the mesh level) or "<table>.<option>" (on level 0).
     value : object
-        N [-], the coarse grid [-] for "spectral", or the option's value.
-    n : int
-        Surface cells per side of the FEM grid [-].
+        The level [-] or the option's value.
     """
 
     knob: str
     value: object
-    n: int
+
+    @property
+    def level(self) -> int:
+        """Mesh level of the run: 0 the surface's own grid [-]."""
+        return int(self.value) if self.knob == "level" else 0
 
     @property
     def label(self) -> str:
-        """``N=32``, ``64^2 on 128``, ``penalty=100``."""
-        if self.knob == "n":
-            return f"N={self.n}"
-        if self.knob == "spectral":
-            return f"{self.value}^2 on {self.n}"
+        """``1x``, ``2x``, ``first_slide=0.08``."""
+        if self.knob == "level":
+            return f"{LADDER_RATIO**self.level}x"
         value = self.value if isinstance(self.value, (str, bool)) else f"{self.value:g}"
         return f"{self.knob.split('.')[1]}={value}"
 
 
+DEFAULTS = Variant("level", 0)
+
+
 @dataclass(frozen=True)
 class ErrorPlan:
-    """The benchmark's runs: cases, resolutions and knobs (defaults: the tables above)."""
+    """The benchmark's runs: cases, grid, levels and knobs (defaults: the tables above)."""
 
     cases: tuple = CASES
-    sizes: tuple = SIZES
-    base_n: int = BASE_N
-    variants: tuple = VARIANTS
-    spectral: bool = True
-    material: Material = PAPER_MATERIAL
+    n: int = BASE_N
+    levels: tuple = LEVELS
+    knobs: tuple = KNOBS
 
 
-def case_variants(case: ErrorCase, plan: ErrorPlan) -> list[Variant]:
-    """The variants run for ``case``: the sizes, the spectral runs (rough surfaces: each size
-    but the finest on the next one), the knobs (those of :data:`SLIDING_ONLY` only for sliding
-    cases)."""
-    sizes = sorted(plan.sizes)
-    variants = [Variant("n", n, n) for n in sizes]
-    if plan.spectral and not case.analytic:
-        variants += [Variant("spectral", coarse, fine)
-                     for coarse, fine in zip(sizes, sizes[1:], strict=False)]
-    for table, option, values in plan.variants:
-        if case.analytic and option in SLIDING_ONLY:
-            continue
-        variants += [Variant(f"{table}.{option}", value, plan.base_n) for value in values]
-    return variants
+def case_variants(plan: ErrorPlan) -> list[Variant]:
+    """The variants run for every case: the levels, then each knob value alone."""
+    variants = [Variant("level", level) for level in sorted(plan.levels)]
+    return variants + [Variant(f"{table}.{option}", value)
+                       for table, option, values in plan.knobs for value in values]
 
 
-def sinusoid_surface(n: int) -> Surface:
-    """The benchmark's sinusoid on n x n points over one period [m]."""
-    phase = 2 * np.pi * np.arange(n) / n
-    amplitude = SINUSOID_SLOPE * SINUSOID_PERIOD
-    return Surface(amplitude * np.outer(np.cos(phase), np.cos(phase)), SINUSOID_PERIOD / n,
-                   SINUSOID)
+def fem_case(case: ErrorCase, variant: Variant, n: int) -> FemCase:
+    """The FemCase of one run: the figures' case of the surface on n x n cells
+    (:func:`studies.paper.fem_case`) with the variant's option changed, on its level."""
+    from roughfriction.studies.paper import fem_case as paper_case
 
-
-def case_surface(case: ErrorCase, variant: Variant) -> Surface:
-    """The surface of a run on its FEM grid: the sinusoid; a built-in surface re-gridded as
-    ``--n`` does; for "spectral" re-gridded to the coarse grid, then Fourier-interpolated."""
-    from roughfriction.geometry.generate import builtin_surface
-    from roughfriction.geometry.surface import spectral_interpolate, surface_on_fem_grid
-
-    if case.analytic:
-        return sinusoid_surface(variant.n)
-    surface = builtin_surface(case.surface)
-    if variant.knob == "spectral":
-        return spectral_interpolate(surface_on_fem_grid(surface, variant.value), variant.n)
-    return surface_on_fem_grid(surface, variant.n)
-
-
-def fem_case(case: ErrorCase, variant: Variant, material: Material = PAPER_MATERIAL) -> FemCase:
-    """The FemCase of one run: the defaults (elastic and normal-only for the sinusoid) with the
-    variant's option changed."""
-    fem = FemCase(case_surface(case, variant), Loading(case.load_star, case.analytic),
-                  material, solver=SolverOptions(elastic=case.analytic))
+    fem = paper_case(case.surface, case.load_star, n)
     if "." in variant.knob:
         table, option = variant.knob.split(".")
         fem = replace(fem, **{table: replace(getattr(fem, table), **{option: variant.value})})
-    return fem
+    return level_case(fem, variant.level)
 
 
 def benchmark_runs(plan: ErrorPlan) -> list[tuple[ErrorCase, Variant, FemCase]]:
     """Every run of the plan: (case, variant, FemCase)."""
-    return [(case, variant, fem_case(case, variant, plan.material))
-            for case in plan.cases for variant in case_variants(case, plan)]
+    return [(case, variant, fem_case(case, variant, plan.n))
+            for case in plan.cases for variant in case_variants(plan)]
 
 
 # --- errors ----------------------------------------------------------------------------------
@@ -237,71 +174,72 @@ def difference(value, reference) -> float:
     return math.nan if value is None or reference is None else value - reference
 
 
-def mode_amplitude(values: np.ndarray) -> float:
-    """Amplitude of the cos(2 pi i / n) cos(2 pi j / n) mode of an n x n map (its units)."""
-    n = values.shape[0]
-    phase = 2 * np.pi * np.arange(n) / n
-    mode = np.outer(np.cos(phase), np.cos(phase))
-    return float(np.sum(values * mode) / np.sum(mode**2))
-
-
-def complete_contact_p_star(run) -> float | None:
-    """p* of a sinusoid run in complete contact [Pa]: the amplitude of its pressure mode (the
-    surface is pressed flat, so the pressure is the mean plus p* cos cos); None unless every
-    node touches."""
-    contact, pressure = run.maps.get("contact_normal"), run.maps.get("pressure_normal")
-    if contact is None or pressure is None or not np.all(contact):
-        return None
-    return mode_amplitude(np.asarray(pressure))
-
-
-def measured(run, case: ErrorCase) -> dict:
-    """The columns of one run from its results file (``run`` None: it did not start)."""
-    columns = summary_columns(run)
-    columns["p_star_Pa"] = complete_contact_p_star(run) if run and case.analytic else None
-    return columns
-
-
-def comparator(variant: Variant, sizes: Sequence[int], base_n: int) -> Variant | None:
-    """What a run is compared with: a knob variant with the defaults at its N, resolution N
-    with 2N (if in the sweep), the spectral run with the run of its coarse surface."""
-    if variant.knob == "n":
-        return Variant("n", 2 * variant.n, 2 * variant.n) if 2 * variant.n in sizes else None
-    if variant.knob == "spectral":
-        return Variant("n", variant.value, variant.value)
-    return Variant("n", base_n, base_n)
-
-
-def closed_form(material: Material) -> dict:
-    """The sinusoid's exact values: A_r/A_n = 1 (complete contact) and p* [Pa]."""
-    return {"area_ratio_normal": 1.0, "p_star_Pa": sinusoid_p_star(material)}
-
-
 def error_columns(row: dict, reference: dict) -> dict:
-    """Errors of a run's values against ``reference``'s: ``mu_s``, ``area`` (A_r/A_n under the
-    normal load), ``p_star`` relative [-], ``growth`` (junction growth) a difference [-]."""
+    """Errors of a run's values against ``reference``'s: ``mu_s`` and ``area`` (A_r/A_n under
+    the normal load) relative [-], ``growth`` (junction growth) a difference [-]."""
     return {
         "mu_s": relative_change(row.get("mu_s"), reference.get("mu_s")),
         "area": relative_change(row.get("area_ratio_normal"), reference.get("area_ratio_normal")),
         "growth": difference(row.get("junction_growth"), reference.get("junction_growth")),
-        "p_star": relative_change(row.get("p_star_Pa"), reference.get("p_star_Pa")),
     }
 
 
-def finest_converged(table: dict, label: str, sizes: Sequence[int]) -> tuple[dict, str]:
-    """The reference of a rough case: its finest run of the sweep that converged, and its name
-    (``N=128``, or ``N=64 (no converged N=128)``); ({}, "none converged") if none did."""
-    finest = max(sizes)
-    for n in sorted(sizes, reverse=True):
-        values = table.get((label, Variant("n", n, n)), {})
-        if values.get("converged"):
-            return values, f"N={n}" + (f" (no converged N={finest})" if n != finest else "")
-    return {}, "none converged"
+@dataclass(frozen=True)
+class Reference:
+    """The reference of a case: its finest converged level.
+
+    Attributes
+    ----------
+    values : dict
+        Its measured columns ({} if no level converged).
+    name : str
+        ``2x``, ``1x (no converged 2x)`` or ``none converged``.
+    error : float
+        Estimated relative error of its mu_s [-] (NaN without a coarser converged level).
+    order : float
+        Order of that estimate [-], observed with three levels, else assumed.
+    """
+
+    values: dict
+    name: str
+    error: float = math.nan
+    order: float = math.nan
+
+
+def case_reference(table: dict, label: str, levels: Sequence[int]) -> Reference:
+    """The finest converged level of case ``label`` and its error estimate from the converged
+    levels just below it (:func:`studies.refinement.richardson`)."""
+    finest = max(levels)
+    ladder = []
+    for level in sorted(levels):
+        values = table.get((label, Variant("level", level)), {})
+        if not values.get("converged") or values.get("mu_s") is None:
+            break
+        ladder.append((level, values))
+    if not ladder:
+        return Reference({}, "none converged")
+    level, values = ladder[-1]
+    name = Variant("level", level).label
+    if level != finest:
+        name += f" (no converged {Variant('level', finest).label})"
+    if len(ladder) < 2:
+        return Reference(values, name)
+    estimate = richardson([row["mu_s"] for _, row in ladder[-3:]])
+    return Reference(values, name, estimate.relative_error, estimate.order)
+
+
+def comparator(variant: Variant) -> Variant | None:
+    """What a run is compared with: a knob with the defaults, a level with the next coarser
+    one; None for level 0."""
+    if variant.knob != "level":
+        return DEFAULTS
+    return Variant("level", variant.level - 1) if variant.level > 0 else None
 
 
 def error_rows(runs: Sequence[tuple], measurements: Sequence[dict], plan: ErrorPlan) -> list:
-    """One row per run: case, variant, measured columns, errors against the case's reference
-    (``*_error``) and against the run's comparator (``*_change``).
+    """One row per run: case, variant, measured columns, the case's reference with its own
+    error estimate, errors against it (``*_error``) and against the run's comparator
+    (``*_change``).
 
     Parameters
     ----------
@@ -310,86 +248,29 @@ def error_rows(runs: Sequence[tuple], measurements: Sequence[dict], plan: ErrorP
     measurements : sequence of dict
         :func:`measured` of each run.
     plan : ErrorPlan
-        Sizes and base resolution.
+        The levels.
     """
     table = {(case.label, variant): values
              for (case, variant, _), values in zip(runs, measurements, strict=True)}
+    references = {case.label: case_reference(table, case.label, plan.levels)
+                  for case, _, _ in runs}
     rows = []
     for (case, variant, _), values in zip(runs, measurements, strict=True):
-        if case.analytic:
-            reference, reference_name = closed_form(plan.material), "closed form"
-        else:
-            reference, reference_name = finest_converged(table, case.label, plan.sizes)
-        compared = comparator(variant, plan.sizes, plan.base_n)
+        reference = references[case.label]
+        compared = comparator(variant)
         other = table.get((case.label, compared), {}) if compared else {}
         row = {"case": case.label, "knob": variant.knob, "value": variant.value,
-               "label": variant.label, "n": variant.n, "chosen_default": False, **values,
-               "reference": reference_name}
+               "label": variant.label, "level": variant.level, "is_default": variant == DEFAULTS,
+               **values, "reference": reference.name,
+               "reference_mu_s": reference.values.get("mu_s"),
+               "reference_error": reference.error, "reference_order": reference.order}
         row.update({f"{key}_error": value for key, value in
-                    error_columns(values, reference).items()})
+                    error_columns(values, reference.values).items()})
         row["compared_with"] = compared.label if compared else ""
         row.update({f"{key}_change": value for key, value in
                     error_columns(values, other).items()})
         rows.append(row)
     return rows
-
-
-def doubling_changes(rows: Sequence[dict]) -> dict[int, dict[str, float]]:
-    """mu_s(N) / mu_s(2N) - 1 of every sliding case, for each N of the sweep whose 2N is in it
-    (NaN where a run gave no mu_s)."""
-    changes: dict[int, dict[str, float]] = {}
-    for row in rows:
-        if row["knob"] == "n" and row["compared_with"] and row["reference"] != "closed form":
-            changes.setdefault(row["n"], {})[row["case"]] = row["mu_s_change"]
-    return dict(sorted(changes.items()))
-
-
-def chosen_resolution(changes: dict[int, dict[str, float]], tolerance: float) -> int | None:
-    """The smallest N from which on every doubling changes mu_s by at most ``tolerance`` in
-    every case (a NaN fails); None if even the largest N checked fails."""
-    chosen = None
-    for n in sorted(changes, reverse=True):
-        values = list(changes[n].values())
-        if not values or not all(abs(value) <= tolerance for value in values):
-            break
-        chosen = n
-    return chosen
-
-
-def percent_cell(change: float) -> str:
-    """A change [-] as a 14-character percentage, "no mu_s" where a run gave none."""
-    return f"{100 * change:>+13.2f}%" if math.isfinite(change) else f"{'no mu_s':>14}"
-
-
-def check_lines(changes: dict[int, dict[str, float]], chosen: int | None,
-                tolerance: float) -> list[str]:
-    """The printed resolution check: a row per N, a column per case, then the verdict."""
-    cases = list(dict.fromkeys(case for row in changes.values() for case in row))
-    lines = [f"mu_s at N against 2N (tolerance {100 * tolerance:g} %):",
-             f"{'N':>5}  " + "  ".join(f"{case:>14}" for case in cases) + "  verdict"]
-    for n, row in changes.items():
-        ok = all(abs(row.get(case, math.nan)) <= tolerance for case in cases)
-        lines.append(f"{n:>5}  " + "  ".join(percent_cell(row.get(case, math.nan))
-                                              for case in cases)
-                     + f"  {'PASS' if ok else 'FAIL'}")
-    if chosen is None:
-        lines.append("default resolution: NONE of the sweep meets the tolerance")
-    else:
-        lines.append(f"default resolution: N = {chosen} (smallest N from which on every "
-                     f"doubling changes mu_s by <= {100 * tolerance:g} %)")
-    return lines
-
-
-def mesh_lines(rows: Sequence[dict]) -> list[str]:
-    """The printed mesh-only check: mu_s of each sliding case's coarse surface on the finer
-    mesh (the spectral run) against the same surface on its own grid."""
-    spectral = [row for row in rows
-                if row["knob"] == "spectral" and row["reference"] != "closed form"]
-    if not spectral:
-        return []
-    return (["mu_s of the same surface on a 2x finer mesh against its own grid (mesh error):"]
-            + [f"{row['label']:>12}  {row['case']:>14} {percent_cell(row['mu_s_change'])}"
-               for row in spectral])
 
 
 def pareto_front(times: Sequence[float], errors: Sequence[float]) -> list[int]:
@@ -405,25 +286,55 @@ def pareto_front(times: Sequence[float], errors: Sequence[float]) -> list[int]:
     return front
 
 
+def percent(value) -> str:
+    """A fraction as a signed percentage, "-" where there is none."""
+    return f"{100 * value:+.2f} %" if value is not None and math.isfinite(value) else "-"
+
+
+def frontier_lines(rows: Sequence[dict]) -> list[str]:
+    """The printed summary per case: the reference with its error estimate, then every run
+    on the Pareto front of wall time against |mu_s error| (the defaults marked)."""
+    lines = []
+    for case in dict.fromkeys(row["case"] for row in rows):
+        mine = [row for row in rows if row["case"] == case and row["wall_s"]]
+        errors = [abs(row["mu_s_error"]) for row in mine]
+        front = pareto_front([row["wall_s"] for row in mine], errors)
+        first = mine[0] if mine else {}
+        lines.append(f"{case}: reference {first.get('reference', '-')} mu_s = "
+                     f"{first.get('reference_mu_s') or math.nan:.4f}, its estimated error "
+                     f"{percent(first.get('reference_error'))}")
+        lines += [f"  {row['label']:>24} {row['wall_s']:8.1f} s  mu_s {row['mu_s']:.4f}  "
+                  f"error {percent(row['mu_s_error'])}" + ("  (defaults)" if row["is_default"]
+                                                           else "")
+                  for row in (mine[k] for k in front)]
+    return lines
+
+
 # --- output ----------------------------------------------------------------------------------
 
-COLUMNS = ("case", "knob", "value", "label", "n", "chosen_default", "converged", "message",
-           "mu_s", "area_ratio_normal", "junction_growth", "p_star_Pa", "reference",
-           "mu_s_error", "area_error", "growth_error", "p_star_error", "compared_with",
-           "mu_s_change", "area_change", "growth_change", "p_star_change", "wall_s",
-           "peak_memory_gb", "ranks", "steps", "cut_steps", "newton_iterations")
+COLUMNS = ("case", "knob", "value", "label", "level", "is_default", "converged", "message",
+           "mu_s", "area_ratio_normal", "junction_growth", "reference", "reference_mu_s",
+           "reference_error", "reference_order", "mu_s_error", "area_error", "growth_error",
+           "compared_with", "mu_s_change", "area_change", "growth_change", "wall_s",
+           "peak_memory_gb", "cpu_share", "ranks", "steps", "cut_steps", "newton_iterations",
+           "version")
 
 
-def plotted_error(row: dict) -> float:
-    """The error on the plot's axis [-]: p* against its closed form for the sinusoid, else
-    mu_s against the case's reference (absolute values)."""
-    key = "p_star_error" if row["reference"] == "closed form" else "mu_s_error"
-    return abs(row[key])
+def measured(result) -> dict:
+    """The columns of one run (a :class:`studies.batch.BatchResult`) from its results file,
+    with ``version``, the code that computed it."""
+    from roughfriction.studies.post import read_run
+    from roughfriction.studies.results_file import run_version
+
+    if result.path is None:
+        return summary_columns(None) | {"message": result.error, "version": None}
+    return summary_columns(read_run(result.path)) | {"version": run_version(result.path)}
 
 
 def plot_error(rows: Sequence[dict], path: Path) -> None:
-    """Wall time against error, a panel per case, each knob a colour, the Pareto front dashed,
-    the chosen defaults a star; the reference run (error 0) is named in the panel title."""
+    """Wall time against |mu_s error|, a panel per case, levels and each knob a colour, the
+    Pareto front dashed, the defaults a star; the reference (error 0) is named in the title
+    with its own error estimate."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -438,9 +349,16 @@ def plot_error(rows: Sequence[dict], path: Path) -> None:
                              constrained_layout=True)
     for ax, case in zip(axes.flat, cases, strict=False):
         mine = [row for row in rows if row["case"] == case]
-        shown = [row for row in mine if row["wall_s"] and plotted_error(row) > 0]
+        shown = [row for row in mine if row["wall_s"] and math.isfinite(row["mu_s_error"])
+                 and row["mu_s_error"] != 0]
+        reference = mine[0]
+        ax.set_title(f"{case}: vs {reference['reference']} (its error "
+                     f"~{percent(reference['reference_error'])})", fontsize=9)
+        if not shown:
+            ax.text(0.5, 0.5, "no run with a finite error", ha="center", transform=ax.transAxes)
+            continue
         times = [row["wall_s"] for row in shown]
-        errors = [100 * plotted_error(row) for row in shown]
+        errors = [100 * abs(row["mu_s_error"]) for row in shown]
         for knob in knobs:
             points = [(t, e) for t, e, row in zip(times, errors, shown, strict=True)
                       if row["knob"] == knob]
@@ -449,31 +367,19 @@ def plot_error(rows: Sequence[dict], path: Path) -> None:
         for t, e, row in zip(times, errors, shown, strict=True):
             ax.annotate(row["label"], (t, e), fontsize=6, xytext=(3, 2),
                         textcoords="offset points")
-        if not shown:
-            ax.text(0.5, 0.5, "no run with a finite error", ha="center", transform=ax.transAxes)
-            ax.set_title(case)
-            continue
         front = pareto_front(times, errors)
         ax.plot([times[k] for k in front], [errors[k] for k in front], "k--", lw=0.8,
                 drawstyle="steps-post", label="Pareto front")
-        chosen = [k for k, row in enumerate(shown) if row["chosen_default"]]
+        chosen = [k for k, row in enumerate(shown) if row["is_default"]]
         ax.scatter([times[k] for k in chosen], [errors[k] for k in chosen], marker="*", s=160,
-                   facecolor="none", edgecolor="k", label="chosen defaults")
-        ax.set(xscale="log", yscale="log", xlabel="wall time [s]", title=case,
-               ylabel="|p* error| vs closed form [%]" if mine[0]["reference"] == "closed form"
-               else f"|mu_s error| vs {mine[0]['reference']} [%]")
+                   facecolor="none", edgecolor="k", label="defaults")
+        ax.set(xscale="log", yscale="log", xlabel="wall time [s]", ylabel="|mu_s error| [%]")
         ax.grid(True, which="both", alpha=0.3)
         ax.legend(fontsize=6)
     for ax in axes.flat[len(cases):]:
         ax.set_visible(False)
     atomic_write(Path(path), lambda temporary: fig.savefig(temporary, dpi=110, format="png"))
     plt.close(fig)
-
-
-def mark_defaults(rows: list[dict], chosen: int) -> None:
-    """Set ``chosen_default`` on the default-options runs at the chosen N."""
-    for row in rows:
-        row["chosen_default"] = row["knob"] == "n" and row["n"] == chosen
 
 
 # --- command line ----------------------------------------------------------------------------
@@ -484,8 +390,6 @@ def run_benchmark(plan: ErrorPlan, output: Path, comm, runs_directory=None,
     """Compute (every rank) and write (rank 0) the benchmark; the rows on rank 0, else None.
     With ``compute`` False nothing is computed: the tables are written from the runs in the
     cache, the others reported as not computed."""
-    from roughfriction.studies.post import read_run
-
     runs = benchmark_runs(plan)
     cases = [fem for _, _, fem in runs]
     if not compute:
@@ -494,19 +398,10 @@ def run_benchmark(plan: ErrorPlan, output: Path, comm, runs_directory=None,
         results = compute_batch(cases, comm, runs_directory, progress)
     if comm.rank != 0:
         return None
-    measurements = [measured(read_run(result.path) if result.path else None, case)
-                    | ({"message": result.error} if result.error else {})
-                    for (case, _, _), result in zip(runs, results, strict=True)]
-    rows = error_rows(runs, measurements, plan)
-    changes = doubling_changes(rows)
-    chosen = chosen_resolution(changes, MU_S_TOLERANCE)
-    mark_defaults(rows, plan.base_n if chosen is None else chosen)
+    rows = error_rows(runs, [measured(result) for result in results], plan)
     output.mkdir(parents=True, exist_ok=True)
     write_text(output / "error.csv", csv_text(rows, COLUMNS))
     plot_error(rows, output / "error.png")
-    print("\n".join(check_lines(changes, chosen, MU_S_TOLERANCE) + mesh_lines(rows)),
-          flush=True)
-    if chosen is None:
-        print(f"(the defaults at the base N = {plan.base_n} are marked instead)", flush=True)
+    print("\n".join(frontier_lines(rows)), flush=True)
     print(f"wrote {output / 'error.csv'} and {output / 'error.png'}", flush=True)
     return rows

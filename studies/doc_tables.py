@@ -140,20 +140,59 @@ def relative(value: str) -> str:
     return "–" if value in ("", "nan") else f"{100 * float(value):+.1f} %"
 
 
+def timed(row: dict) -> str:
+    """A run's wall time, marked † when other work shared the cores during it (its CPU share
+    below :data:`studies.batch.QUIET_CPU_SHARE`: the time overstates the cost)."""
+    from roughfriction.studies.batch import QUIET_CPU_SHARE
+
+    if not row["wall_s"]:
+        return "not computed"
+    share = row.get("cpu_share", "")
+    contended = share not in ("", "nan") and float(share) < QUIET_CPU_SHARE
+    return seconds(float(row["wall_s"])) + (" †" if contended else "")
+
+
 def error_table(bench: Path) -> str:
-    """`make bench-error`: the result (mu_s, or p* for the sinusoid) against the mesh size N
-    per case, each against the case's reference (error.csv)."""
-    rows = [row for row in read_rows(bench / "error.csv") if row["knob"] == "n"]
-    rows.sort(key=lambda row: (row["case"], int(row["n"])))
+    """`make bench-error`: every run of each case (mesh level or one knob changed on 1x) with
+    mu_s, its error against the case's reference, its change against its comparator, wall
+    time and peak memory (error.csv)."""
     table = []
-    for row in rows:
-        is_mu = row["mu_s"] not in ("", "nan")
-        value = (f"μ_s {float(row['mu_s']):.4f}" if is_mu else
-                 f"p* {float(row['p_star_Pa']) / 1e6:.0f} MPa" if row["p_star_Pa"] else "–")
-        table.append([row["case"], row["n"], value, row["reference"],
-                      relative(row["mu_s_error"] if is_mu else row["p_star_error"]),
-                      seconds(float(row["wall_s"])) if row["wall_s"] else "not computed"])
-    return markdown_table(["case", "N", "result", "reference", "error", "wall time"], table)
+    for row in read_rows(bench / "error.csv"):
+        converged = row["converged"] == "True"
+        table.append([row["case"], row["label"] + (" (defaults)" if row["is_default"] == "True"
+                                                   else ""),
+                      f"{float(row['mu_s']):.4f}" if converged else "no result",
+                      relative(row["mu_s_error"]) if converged else "–",
+                      relative(row["mu_s_change"]) if converged else "–",
+                      timed(row),
+                      f"{float(row['peak_memory_gb']):.1f}" if row["peak_memory_gb"] else "–"])
+    return markdown_table(["case", "run", "μ_s", "error vs reference", "change vs comparator",
+                           "wall time", "memory [GB]"], table)
+
+
+def error_frontier_table(bench: Path) -> str:
+    """`make bench-error`, in short: per case the reference (finest level) with its own error
+    estimate, the defaults (1x) with their error and time, and the largest change any knob on
+    1x makes (error.csv)."""
+    rows = read_rows(bench / "error.csv")
+    table = []
+    for case in dict.fromkeys(row["case"] for row in rows):
+        mine = [row for row in rows if row["case"] == case and row["converged"] == "True"]
+        default = next((row for row in mine if row["is_default"] == "True"), None)
+        finest = next((row for row in mine if row["label"] == row["reference"]), None)
+        knobs = [row for row in mine if row["knob"] != "level"]
+        widest = max(knobs, key=lambda row: abs(float(row["mu_s_change"])), default=None)
+        table.append([
+            case,
+            f"{float(default['mu_s']):.4f}, {relative(default['mu_s_error'])}, "
+            f"{seconds(float(default['wall_s']))}" if default else "no result",
+            f"{finest['label']}: {float(finest['mu_s']):.4f} ± "
+            f"{100 * abs(float(finest['reference_error'])):.1f} %, {timed(finest)}"
+            if finest else "no result",
+            f"{relative(widest['mu_s_change'])} ({widest['label']})" if widest else "–"])
+    return markdown_table(["case", "defaults (1x): μ_s, error, time",
+                           "reference: μ_s ± its estimated error, time",
+                           "largest change by a knob on 1x"], table)
 
 
 def stress_table(bench: Path) -> str:
@@ -224,6 +263,7 @@ TABLES: dict[str, Callable[[Path], str]] = {
     "path.csv": path_table,
     "figures_n128.csv": figures_table,
     "error.csv": error_table,
+    "error.csv frontier": error_frontier_table,
     "stress.csv": stress_table,
     "calibration.csv": calibration_table,
     "memory.csv": memory_table,

@@ -23,16 +23,17 @@ FILE_FORMAT = 1
 
 
 def package_versions() -> dict:
-    """Versions of the numerical stack (recorded with every result)."""
+    """Versions of roughfriction and of the numerical stack (recorded with every result)."""
     import dolfinx
     import gmsh
     import h5py
     import petsc4py
+    import roughfriction
     import scipy
     import ufl
 
-    modules = {"dolfinx": dolfinx, "ufl": ufl, "petsc4py": petsc4py, "gmsh": gmsh, "numpy": np,
-               "scipy": scipy, "h5py": h5py}
+    modules = {"roughfriction": roughfriction, "dolfinx": dolfinx, "ufl": ufl,
+               "petsc4py": petsc4py, "gmsh": gmsh, "numpy": np, "scipy": scipy, "h5py": h5py}
     return {name: module.__version__ for name, module in modules.items()}
 
 
@@ -102,6 +103,17 @@ def _write_hdf5(path, inputs: dict, result: FemResult, summary: dict, maps: dict
         grid_maps = h5.create_group("maps")
         for name, values in maps.items():
             grid_maps.create_dataset(name, data=values)
+
+
+def run_version(path: Path) -> str:
+    """The code that wrote a results file, as ``roughfriction --version`` prints it, with the
+    git revision: ``roughfriction 0.19.0 (a53d6e2)``; "unknown" where the file does not say."""
+    import h5py
+
+    with h5py.File(path, "r") as h5:
+        versions = json.loads(h5.attrs.get("versions", "{}"))
+        revision = h5.attrs.get("git", "unknown")
+    return f"roughfriction {versions.get('roughfriction', 'unknown')} ({revision})"
 
 
 def save_run(path: Path, case: FemCase, fem_run, comm, note: str = "",

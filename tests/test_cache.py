@@ -449,3 +449,19 @@ def test_an_entry_computed_on_two_ranks_serves_one_rank(tmp_path, monkeypatch):
         monkeypatch.setitem(sys.modules, "roughfriction.solver.run", module)
         assert cached_results([case], MPI.COMM_SELF, lambda line: None, directory) == [path]
     comm.barrier()
+
+
+def test_cpu_share_is_near_one_while_computing_and_near_zero_while_waiting():
+    import time
+
+    from mpi4py import MPI
+    from roughfriction.studies.cache import CpuShare
+
+    share = CpuShare(MPI.COMM_SELF)
+    end = time.perf_counter() + 0.3
+    while time.perf_counter() < end:
+        pass
+    busy = share.take()
+    time.sleep(0.3)
+    idle = share.take()
+    assert busy > 0.5 and idle < 0.2
