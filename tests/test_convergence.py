@@ -44,11 +44,12 @@ def test_relative_change_is_nan_without_both_values():
 def test_variants_are_the_levels_then_each_knob_alone():
     plan = ErrorPlan(levels=(1, 0), knobs=(("mesh", "fine_layers", (1, 4)),
                                            ("solver", "first_slide", (0.08,))))
-    variants = case_variants(plan)
+    variants = case_variants(G5_LOW, plan)
     assert [v.label for v in variants] == ["1x", "2x", "fine_layers=1", "fine_layers=4",
                                            "first_slide=0.08"]
     assert [v.level for v in variants] == [0, 1, 0, 0, 0]
     assert variants[0] == DEFAULTS
+    assert [v.label for v in case_variants(TWO_L, plan)] == ["1x", "2x"]  # not a knob case
 
 
 def test_fem_case_is_the_figures_case_with_one_option_changed_on_its_level():
@@ -77,7 +78,7 @@ def synthetic_table(mu: dict, converged=lambda label: True):
     """Runs and measurements of the G5 low-load case from mu_s per variant label."""
     plan = ErrorPlan(cases=(G5_LOW,), levels=(0, 1, 2),
                      knobs=(("solver", "first_slide", (0.08,)),))
-    runs = [(G5_LOW, variant, None) for variant in case_variants(plan)]
+    runs = [(G5_LOW, variant, None) for variant in case_variants(G5_LOW, plan)]
     measurements = [{"converged": converged(variant.label), "mu_s": mu[variant.label],
                      "area_ratio_normal": 0.2, "junction_growth": 0.1,
                      "wall_s": 2.0**variant.level} for _, variant, _ in runs]
