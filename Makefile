@@ -160,6 +160,7 @@ stress: setup
 # in docs/bench/ (studies/doc_tables.py; `--check` reports stale tables without writing).
 .PHONY: docs
 docs: setup
+	@$(PY) -m roughfriction.scripts.scenes docs/bench/figure_scenes.csv
 	@$(PY) -m roughfriction.studies.doc_tables
 
 clean:

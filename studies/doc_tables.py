@@ -195,6 +195,16 @@ def error_frontier_table(bench: Path) -> str:
                            "largest change by a knob on 1x"], table)
 
 
+def scenes_table(bench: Path) -> str:
+    """`make docs`: what each FEM figure runs (figure_scenes.csv, from the figures' declared
+    runs by ``scripts/scenes.py``)."""
+    table = [[row["figure"], row["shows"], row["loading"], row["meshes"],
+              f"{row['runs']} ({row['new_runs']} new)"]
+             for row in read_rows(bench / "figure_scenes.csv")]
+    return markdown_table(["figure", "shows", "runs stop", "meshes",
+                           "runs declared (not shared with an earlier figure)"], table)
+
+
 def stress_table(bench: Path) -> str:
     """`make stress`: outcomes of the stress matrix (stress.csv)."""
     counts = Counter(row["outcome"] for row in read_rows(bench / "stress.csv"))
@@ -265,6 +275,7 @@ TABLES: dict[str, Callable[[Path], str]] = {
     "error.csv": error_table,
     "error.csv frontier": error_frontier_table,
     "stress.csv": stress_table,
+    "figure_scenes.csv": scenes_table,
     "calibration.csv": calibration_table,
     "memory.csv": memory_table,
     "profile_*.json": profile_table,
