@@ -60,6 +60,10 @@ def add_bench_commands(bench) -> None:
                        "paper's surfaces on their own grid)")
     error.add_argument("--levels", type=int, nargs="+", metavar="K",
                        help=f"mesh levels, 0 the surface's grid (default {convergence.LEVELS})")
+    error.add_argument("--knob-cases", nargs="*", metavar="CASE",
+                       help="cases whose knobs are run (default "
+                       f"{' '.join(repr(c) for c in convergence.KNOB_CASES)}; none: the levels "
+                       "alone)")
     error.add_argument("--output", metavar="DIR", help="where error.csv and error.png go")
     error.add_argument("--runs", metavar="DIR", help="run cache directory")
     error.add_argument("--plan", action="store_true",
@@ -143,7 +147,14 @@ def cmd_bench_error(args) -> dict:
     n, levels, output = convergence.BASE_N, convergence.LEVELS, BENCH_DIR
     if args.quick:
         n, levels, output = convergence.QUICK_N, convergence.QUICK_LEVELS, BENCH_DIR / "quick"
-    plan = convergence.ErrorPlan(n=args.n or n, levels=tuple(args.levels or levels))
+    knob_cases = convergence.KNOB_CASES if args.knob_cases is None else tuple(args.knob_cases)
+    labels = [case.label for case in convergence.CASES]
+    unknown = [label for label in knob_cases if label not in labels]
+    if unknown:
+        raise InputError(f"unknown case(s) {', '.join(map(repr, unknown))}; known: "
+                         f"{', '.join(map(repr, labels))}")
+    plan = convergence.ErrorPlan(n=args.n or n, levels=tuple(args.levels or levels),
+                                 knob_cases=knob_cases)
     output = Path(args.output) if args.output else output
     if args.plan:
         return {"plan": batch_plan([fem for _, _, fem in convergence.benchmark_runs(plan)],
