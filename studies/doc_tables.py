@@ -23,6 +23,7 @@ import statistics
 import sys
 from collections import Counter
 from collections.abc import Callable
+from functools import partial
 from pathlib import Path
 
 from roughfriction.errors import InputError
@@ -69,9 +70,11 @@ def case_label(row: dict[str, str]) -> str:
     return f"{row['surface']}, F* = {float(row['load_star']):g}"
 
 
-def fem_table(bench: Path) -> str:
-    """`make bench-fem`: the headline cases at every N on 2 ranks (fem.csv)."""
-    rows = [row for row in read_rows(bench / "fem.csv") if row["ranks"] == "2"]
+def fem_table(bench: Path, smallest_n: int = 0) -> str:
+    """`make bench-fem`: the headline cases at every N (from ``smallest_n`` on) on 2 ranks
+    (fem.csv)."""
+    rows = [row for row in read_rows(bench / "fem.csv")
+            if row["ranks"] == "2" and int(row["n"]) >= smallest_n]
     rows.sort(key=lambda row: (row["surface"] != "G5", row["surface"], float(row["load_star"]),
                                int(row["n"])))
     return markdown_table(
@@ -164,34 +167,40 @@ def error_table(bench: Path) -> str:
                       f"{float(row['mu_s']):.4f}" if converged else "no result",
                       relative(row["mu_s_error"]) if converged else "–",
                       relative(row["mu_s_change"]) if converged else "–",
-                      timed(row),
+                      timed(row), row["newton_iterations"] or "–",
                       f"{float(row['peak_memory_gb']):.1f}" if row["peak_memory_gb"] else "–"])
     return markdown_table(["case", "run", "μ_s", "error vs reference", "change vs comparator",
-                           "wall time", "memory [GB]"], table)
+                           "wall time", "Newton its", "memory [GB]"], table)
+
+
+def run_cost(row: dict) -> str:
+    """A run's wall time (:func:`timed`) and Newton iterations."""
+    return f"{timed(row)} ({row['newton_iterations']} its)"
 
 
 def error_frontier_table(bench: Path) -> str:
-    """`make bench-error`, in short: per case the reference (finest level) with its own error
-    estimate, the defaults (1x) with their error and time, and the largest change any knob on
-    1x makes (error.csv)."""
+    """`make bench-error`, in short: per case the defaults (1x) with their error and cost, the
+    reference (finest converged level) with its own error estimate and cost, and the largest
+    change any knob on 1x makes (error.csv)."""
     rows = read_rows(bench / "error.csv")
     table = []
     for case in dict.fromkeys(row["case"] for row in rows):
         mine = [row for row in rows if row["case"] == case and row["converged"] == "True"]
         default = next((row for row in mine if row["is_default"] == "True"), None)
-        finest = next((row for row in mine if row["label"] == row["reference"]), None)
+        finest = next((row for row in mine if row["knob"] == "level"
+                       and row["label"] == row["reference"].split()[0]), None)
         knobs = [row for row in mine if row["knob"] != "level"]
         widest = max(knobs, key=lambda row: abs(float(row["mu_s_change"])), default=None)
         table.append([
             case,
             f"{float(default['mu_s']):.4f}, {relative(default['mu_s_error'])}, "
-            f"{seconds(float(default['wall_s']))}" if default else "no result",
-            f"{finest['label']}: {float(finest['mu_s']):.4f} ± "
-            f"{100 * abs(float(finest['reference_error'])):.1f} %, {timed(finest)}"
+            f"{run_cost(default)}" if default else "no result",
+            f"{finest['reference']}: {float(finest['mu_s']):.4f} ± "
+            f"{relative(finest['reference_error']).lstrip('+-')}, {run_cost(finest)}"
             if finest else "no result",
             f"{relative(widest['mu_s_change'])} ({widest['label']})" if widest else "–"])
-    return markdown_table(["case", "defaults (1x): μ_s, error, time",
-                           "reference: μ_s ± its estimated error, time",
+    return markdown_table(["case", "defaults (1x): μ_s, error, time (Newton its)",
+                           "reference: μ_s ± its estimated error, time (its)",
                            "largest change by a knob on 1x"], table)
 
 
@@ -269,6 +278,7 @@ PROFILE_PHASES = ("linear solves", "reduced tangent", "residual assembly", "stre
 #: Generated tables by block name.
 TABLES: dict[str, Callable[[Path], str]] = {
     "fem.csv": fem_table,
+    "fem.csv 128": partial(fem_table, smallest_n=128),
     "fem.csv ranks": fem_ranks_table,
     "path.csv": path_table,
     "figures_n128.csv": figures_table,

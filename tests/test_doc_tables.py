@@ -105,3 +105,23 @@ def test_the_committed_docs_hold_the_current_tables():
         text = path.read_text()
         assert doc_tables.regenerate_text(text, REPOSITORY / doc_tables.BENCH_DIRECTORY) == text, (
             f"{document} is out of date with docs/bench/: run make docs")
+
+
+ERROR_CSV = """case,knob,value,label,level,is_default,converged,mu_s,reference,reference_error,\
+mu_s_error,mu_s_change,wall_s,peak_memory_gb,cpu_share,newton_iterations
+A,level,0,1x,0,True,True,0.30,2x,0.15,0.2,,10,1.0,0.95,30
+A,level,1,2x,1,False,True,0.25,2x,0.2,0.0,-0.1667,80,4.0,0.5,60
+A,solver.first_slide,0.08,first_slide=0.08,0,False,True,0.301,2x,0.2,0.204,0.0033,8,1.0,0.97,25
+B,level,0,1x,0,True,True,0.40,1x (no converged 2x),nan,0.0,,12,1.0,,40
+B,level,1,2x,1,False,False,,1x (no converged 2x),nan,,,,,,
+"""
+
+
+def test_error_frontier_names_the_reference_its_error_and_marks_contended_times(tmp_path):
+    (tmp_path / "error.csv").write_text(ERROR_CSV)
+    lines = doc_tables.error_frontier_table(tmp_path).splitlines()
+    a, b = lines[2], lines[3]
+    assert "0.3000, +20.0 %, 10 s (30 its)" in a  # CPU share 0.95: no mark
+    assert "2x: 0.2500 ± 20.0 %, 80 s † (60 its)" in a  # CPU share 0.5: marked
+    assert "+0.3 % (first_slide=0.08)" in a
+    assert "1x (no converged 2x): 0.4000 ± –" in b and b.endswith("| – |")
