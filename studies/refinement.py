@@ -28,6 +28,7 @@ from dataclasses import dataclass, replace
 
 from roughfriction.case import FemCase
 from roughfriction.errors import ConvergenceError
+from roughfriction.geometry.adaptive import refined_layering
 from roughfriction.geometry.mesh import blend_layers_needed, mesh_size
 from roughfriction.geometry.surface import Surface, bilinear_refine
 
@@ -46,17 +47,18 @@ def blend_depth_layers(case: FemCase) -> int:
 
 def refined_case(case: FemCase, factor: int) -> FemCase:
     """The case on a mesh ``factor`` times finer: the same (bilinear) surface, sampled finer,
-    and a blend zone of the same physical depth, ``factor`` times the layers the case meshes
-    (:func:`blend_depth_layers`, each h / factor thick), or more where the finer valleys need
-    them (:func:`geometry.mesh.blend_layers_needed`)."""
+    and the layering of ``geometry.adaptive.refined_layering`` (the layering of the adaptive
+    block refined everywhere): a blend zone of the same physical depth, ``factor`` times the
+    layers the case meshes (:func:`blend_depth_layers`, each h / factor thick), or more where
+    the finer valleys need them (:func:`geometry.mesh.blend_layers_needed`)."""
     if factor == 1:
         return case
     surface = case.surface
     fine = Surface(bilinear_refine(surface.heights, factor), surface.spacing / factor,
                    surface.name)
-    blend_layers = max(factor * blend_depth_layers(case),
-                       blend_layers_needed(fine.heights, fine.spacing))
-    return replace(case, surface=fine, mesh=replace(case.mesh, blend_layers=blend_layers))
+    mesh = refined_layering(replace(case.mesh, blend_layers=blend_depth_layers(case)), factor)
+    blend_layers = max(mesh.blend_layers, blend_layers_needed(fine.heights, fine.spacing))
+    return replace(case, surface=fine, mesh=replace(mesh, blend_layers=blend_layers))
 
 
 def level_case(case: FemCase, level: int) -> FemCase:

@@ -72,29 +72,34 @@ def test_an_all_zone_mask_gives_the_structured_block_of_its_layers(level, option
     # node layer k >= 1 holds its own dofs at the stride of the cell layer under it
     assert reduced_dofs(grid, layout.cells) == 3 * sum((big_n // s) ** 2
                                                        for s in layout.cells.layer_stride)
-    # graded to the surface as --refine's meshes: fine_layers layers h / 2^L thick on top
+    # --refine's meshes: max(fine_layers, 2^L blend_layers) layers h / 2^L thick on top
     thickness = np.diff(layout.layer_z)[::-1]
-    np.testing.assert_allclose(thickness[:options.fine_layers], SPACING / 2**level)
+    fine = max(options.fine_layers, 2**level * options.blend_layers)
+    np.testing.assert_allclose(thickness[:fine], SPACING / 2**level)
     assert np.all(thickness >= SPACING / 2**level * (1 - 1e-12))
 
 
-def test_an_all_zone_mask_gives_today_s_block_of_the_re_gridded_surface():
-    """Where the layerings coincide (4x, 4 fine layers, the blend h = 4 layers h / 4 deep),
-    the adaptive block is today's block of the 4x re-gridded bilinear surface."""
-    n, level = 4, 2
+@pytest.mark.parametrize("level", [1, 2])
+@pytest.mark.parametrize("options", LAYERINGS)
+def test_an_all_zone_mask_gives_today_s_block_of_the_re_gridded_surface(level, options):
+    """The adaptive block refined everywhere is today's block of the 2^L re-gridded bilinear
+    surface with a blend zone as deep in metres (2^L times the layers)."""
+    n, factor = 4, 2**level
     heights = rough(n, 0.2 * SPACING, seed=8)
-    layout = adaptive_layout(n, SPACING, level, np.ones((n, n), bool),
-                             MeshOptions(fine_layers=4, blend_layers=1))
-    today = MeshOptions(fine_layers=4, blend_layers=4)
-    layer_z, layer_stride = layer_layout(4 * n, SPACING / 4, today)
+    layout = adaptive_layout(n, SPACING, level, np.ones((n, n), bool), options)
+    blend = factor * options.blend_layers
+    today = MeshOptions(fine_layers=options.fine_layers, blend_layers=blend,
+                        coarsen=options.coarsen, growth=options.growth, depth=options.depth)
+    layer_z, layer_stride = layer_layout(factor * n, SPACING / factor, today)
     np.testing.assert_allclose(layout.layer_z, layer_z, rtol=0, atol=1e-18)
     np.testing.assert_array_equal(layout.cells.layer_stride, layer_stride)
     grid, hexahedra = adaptive_block(layout.cells)
-    assert as_sets(grid, hexahedra) == as_sets(*structured_block(4 * n, layer_stride))
-    fine = bilinear_refine(heights, 4)
+    assert as_sets(grid, hexahedra) == as_sets(*structured_block(factor * n, layer_stride))
+    fine = bilinear_refine(heights, factor)
     fine -= fine.mean()
     i, j, k = grid.T
-    expected_z = layer_z[k] + blend_weight(k, len(layer_stride), 4) * fine[i % (4 * n), j % (4 * n)]
+    expected_z = layer_z[k] + blend_weight(k, len(layer_stride), blend) * fine[i % (factor * n),
+                                                                             j % (factor * n)]
     np.testing.assert_allclose(node_coordinates(layout, grid, heights)[:, 2], expected_z,
                                rtol=0, atol=1e-18)
 

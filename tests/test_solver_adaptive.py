@@ -17,47 +17,48 @@ from roughfriction.solver.run import FemRun, next_level_case, run  # noqa: E402
 
 SPACING = 1e-6  # [m]
 LEVEL = 1
-#: Layers under which the level-1 adaptive block and the 2x structured block coincide: four
-#: layers h / 2 on top, then 2:1 levels of two layers each; the blend h deep (1 layer h, 2 of
-#: h / 2).
-ADAPTIVE_MESH = MeshOptions(fine_layers=4, blend_layers=1)
-UNIFORM_MESH = MeshOptions(fine_layers=4, blend_layers=2)
-
-#: Since refined levels keep the blend depth in metres (blend layers x factor), the uniform ladder
-#: and the all-zone adaptive layout differ in their blend layering: to be reconciled.
-BLEND_LAYERING_DIFFERS = pytest.mark.xfail(strict=True, reason="uniform and adaptive blend "
-                                           "layering differ since the blend-depth fix")
+#: The layering of both ladders: the zone refined everywhere meshes the uniform ladder's block.
+MESH = MeshOptions()
+#: Layerings the two blocks are compared in: default, fine layers deeper than the blend zone,
+#: a deep blend zone, no coarsening.
+LAYERINGS = [MESH, MeshOptions(fine_layers=4, blend_layers=1), MeshOptions(blend_layers=3),
+             MeshOptions(coarsen=False, growth=2.0)]
 
 
-def gentle_case(n=4, load=0.155, normal_only=False) -> FemCase:
+def gentle_case(n=4, load=0.155, normal_only=False, mesh=MESH) -> FemCase:
     """A small i.i.d. surface whose valleys need no more blend layers than the meshes take."""
     heights = np.random.default_rng(11).normal(0.0, 0.08 * SPACING, (n, n))
-    return FemCase(Surface(heights, SPACING, "gentle"), Loading(load, normal_only))
+    return FemCase(Surface(heights, SPACING, "gentle"), Loading(load, normal_only), mesh=mesh)
 
 
-def all_zone(case: FemCase) -> FemCase:
-    """The case on the adaptive block refined everywhere to LEVEL."""
+def all_zone(case: FemCase, level: int = LEVEL) -> FemCase:
+    """The case on the adaptive block refined everywhere to ``level``."""
     zone = np.ones((case.surface.n, case.surface.n), bool)
-    return replace(case, mesh=replace(ADAPTIVE_MESH, refinement=ZoneRefinement(LEVEL, zone)))
+    return replace(case, mesh=replace(case.mesh, refinement=ZoneRefinement(level, zone)))
 
 
-def uniform(case: FemCase) -> FemCase:
-    """The case re-gridded 2^LEVEL times finer on today's structured block."""
-    return refined_case(replace(case, mesh=UNIFORM_MESH), 2**LEVEL)
+def uniform(case: FemCase, level: int = LEVEL) -> FemCase:
+    """The uniform ladder's level ``level``: the case re-gridded 2^level times finer on the
+    structured block."""
+    return refined_case(case, 2**level)
 
 
-@BLEND_LAYERING_DIFFERS
-def test_the_all_zone_block_is_the_structured_block_of_the_refined_surface():
-    case = gentle_case()
-    adaptive, structured = all_zone(case), uniform(case)
-    assert structured.mesh.blend_layers == UNIFORM_MESH.blend_layers  # not deepened
+@pytest.mark.parametrize("level", [1, 2])
+@pytest.mark.parametrize("options", LAYERINGS)
+def test_the_all_zone_block_is_the_structured_block_of_the_refined_surface(level, options):
+    case = gentle_case(mesh=options)
+    adaptive, structured = all_zone(case, level), uniform(case, level)
     a = mesh_nodes(adaptive.surface.heights, adaptive.surface.spacing, adaptive.mesh)
     s = mesh_nodes(structured.surface.heights, structured.surface.spacing, structured.mesh)
     assert (a.n, a.spacing) == (s.n, s.spacing)
+    # the blend zone as deep in metres as the case's own
+    assert structured.mesh.blend_layers * s.spacing == pytest.approx(
+        options.blend_layers * SPACING, rel=1e-12)
     np.testing.assert_allclose(a.layer_z, s.layer_z, rtol=0, atol=1e-18)
     np.testing.assert_array_equal(a.layer_stride, s.layer_stride)
     position = {tuple(node): p for p, node in enumerate(s.grid)}
     same = np.array([position[tuple(node)] for node in a.grid])
+    assert len(same) == len(s.grid)
     np.testing.assert_allclose(a.coordinates, s.coordinates[same], rtol=0, atol=1e-18)
     cells = {tuple(sorted(same[cell])) for cell in a.hexahedra}
     assert cells == {tuple(sorted(cell)) for cell in s.hexahedra}
@@ -65,13 +66,12 @@ def test_the_all_zone_block_is_the_structured_block_of_the_refined_surface():
 
 def test_a_bad_zone_is_refused_on_every_rank_before_meshing():
     case = gentle_case()
-    bad = replace(ADAPTIVE_MESH, refinement=ZoneRefinement(1, np.ones((3, 3), bool)))
+    bad = replace(MESH, refinement=ZoneRefinement(1, np.ones((3, 3), bool)))
     with pytest.raises(InputError, match="refinement zone"):
         build_block(case.surface.heights, SPACING, bad, MPI.COMM_SELF)
 
 
 @pytest.mark.fem
-@BLEND_LAYERING_DIFFERS
 def test_the_all_zone_run_reproduces_the_uniformly_refined_run():
     case = gentle_case()
     results = {name: run(make(case), MPI.COMM_SELF, progress=lambda record: None).result
@@ -98,7 +98,7 @@ def test_the_all_zone_run_reproduces_the_uniformly_refined_run_across_ranks():
 
 def partial_zone_case() -> FemCase:
     """The gentle 8 x 8 case, refined once around its 1x contact (one cell of margin)."""
-    case = replace(gentle_case(n=8, normal_only=True), mesh=ADAPTIVE_MESH)
+    case = gentle_case(n=8, normal_only=True)
     contact = np.zeros((8, 8), bool)
     contact[[2, 5], [3, 6]] = True
     return replace(case, mesh=replace(case.mesh, refinement=ZoneRefinement(
