@@ -36,7 +36,7 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 
 import numpy as np
-from roughfriction.case import MeshOptions
+from roughfriction.case import MeshOptions, ZoneRefinement
 from roughfriction.errors import InputError
 from roughfriction.geometry.mesh import (
     CONTACT_MEMORY_PER_NODE_GB,
@@ -276,15 +276,48 @@ def adaptive_layout(n: int, spacing: float, level: int, zone: np.ndarray,
     """
     if isinstance(level, bool) or int(level) != level or level < 0:
         raise InputError(f"refinement level must be an integer >= 0, got {level!r}")
+    layer_z, layer_stride = adaptive_layers(n, spacing, level, options)
+    cells = CellSizes(surface_levels(n, level, zone), level, layer_stride)
+    return AdaptiveLayout(n, spacing, cells, layer_z, options.blend_layers * spacing)
+
+
+def surface_levels(n: int, level: int, zone: np.ndarray) -> np.ndarray:
+    """Level of the surface cell covering each finest cell (:func:`balanced_levels`) of an
+    n x n surface with ``zone`` (own cells, or cells of a level m <= L) refined to ``level``,
+    shape (n 2^L, n 2^L), int8."""
     zone = np.asarray(zone, dtype=bool)
     zone_levels = {n << m: m for m in range(level + 1)}
     if zone.ndim != 2 or zone.shape[0] != zone.shape[1] or zone.shape[0] not in zone_levels:
         raise InputError(f"refinement zone must be n 2^m x n 2^m cells with n = {n}, "
                          f"0 <= m <= {level}; got {zone.shape}")
-    layer_z, layer_stride = adaptive_layers(n, spacing, level, options)
-    cells = CellSizes(balanced_levels(zone, level, zone_levels[zone.shape[0]]), level,
-                      layer_stride)
-    return AdaptiveLayout(n, spacing, cells, layer_z, options.blend_layers * spacing)
+    return balanced_levels(zone, level, zone_levels[zone.shape[0]])
+
+
+def zone_escaped(levels: np.ndarray, level: int, contact: np.ndarray) -> bool:
+    """Whether contact reached the edge of the refined zone: a surface cell coarser than
+    ``level`` (2:1 transition or own grid) has a node in ``contact`` as a corner.
+
+    Parameters
+    ----------
+    levels : numpy.ndarray
+        Surface cell levels on the finest grid (:func:`surface_levels`), shape (N, N).
+    level : int
+        L [-].
+    contact : numpy.ndarray
+        Nodes in contact on the finest grid, bool, shape (N, N) (a coarse face's interior grid
+        points are never in contact: its corners are).
+    """
+    return bool(np.any(cells_at_nodes(contact) & (np.asarray(levels) < level)))
+
+
+def refinement_after(refinement: ZoneRefinement | None, contact: np.ndarray, margin: int
+                     ) -> ZoneRefinement:
+    """The zone refinement one level finer than ``refinement`` (None: the structured block,
+    level 0): level L + 1 over the cells of level L's finest grid (h / 2^L) touching a node in
+    ``contact`` (bool, that grid's shape), dilated by ``margin`` of those cells
+    (:func:`cells_at_nodes`)."""
+    level = 0 if refinement is None else refinement.level
+    return ZoneRefinement(level + 1, cells_at_nodes(np.asarray(contact, dtype=bool), margin))
 
 
 def _corners(i0: np.ndarray, j0: np.ndarray, width: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -14,6 +14,8 @@ from roughfriction.geometry.adaptive import (
     hanging_masters,
     node_coordinates,
     reduced_dofs,
+    surface_levels,
+    zone_escaped,
 )
 from roughfriction.geometry.mesh import (
     MIN_JACOBIAN_RATIO,
@@ -381,3 +383,20 @@ def test_the_cells_at_a_contact_node_are_its_four_cells_dilated_periodically():
     assert set(zip(*np.nonzero(cells), strict=True)) == {(5, 2), (5, 3), (0, 2), (0, 3)}
     wider = cells_at_nodes(nodes, margin=1)
     assert wider.sum() == 16 and wider[4, 1] and wider[1, 4] and not wider[2, 2]
+
+
+@pytest.mark.parametrize(("node", "escaped"), [
+    ((6, 6), False), ((9, 6), False),  # inside the zone, the second on its last fine cells
+    ((10, 6), True), ((4, 4), True),  # a corner of a cell outside; the zone's corner
+])
+def test_contact_at_a_cell_outside_the_refined_zone_has_escaped(node, escaped):
+    """Own cells 2..4 refined once: fine cells 4..9 are at level 1, the rest coarser."""
+    zone = np.zeros((8, 8), bool)
+    zone[2:5, 2:5] = True
+    levels = surface_levels(8, 1, zone)
+    assert (levels == 1).sum() == 36
+    contact = np.zeros((16, 16), bool)
+    contact[node] = True
+    assert zone_escaped(levels, 1, contact) is escaped
+    assert not zone_escaped(levels, 1, np.zeros((16, 16), bool))
+    assert not zone_escaped(surface_levels(8, 1, np.ones((8, 8), bool)), 1, contact)
