@@ -310,6 +310,16 @@ def zone_escaped(levels: np.ndarray, level: int, contact: np.ndarray) -> bool:
     return bool(np.any(cells_at_nodes(contact) & (np.asarray(levels) < level)))
 
 
+def overlapped_nodes(heights: np.ndarray, level: int, flat_height: float) -> np.ndarray:
+    """Nodes of level L's finest grid where a rigid flat at ``flat_height`` [m] above the mean
+    plane overlaps the undeformed surface: the mean-free bilinear surface of the own-grid
+    ``heights`` (n, n) [m] at or above it. Under a compressive load the surface only moves
+    down (Boussinesq), so a node can touch the flat at that height only if it is one of
+    these: bool, shape (n 2^L, n 2^L)."""
+    heights = np.asarray(heights, dtype=float)
+    return bilinear_refine(heights - heights.mean(), 1 << level) >= flat_height
+
+
 def refinement_after(refinement: ZoneRefinement | None, contact: np.ndarray, margin: int
                      ) -> ZoneRefinement:
     """The zone refinement one level finer than ``refinement`` (None: the structured block,

@@ -85,7 +85,8 @@ def level_case(case: FemCase, level: int) -> FemCase:
 def adaptive_level_case(case: FemCase, contact: np.ndarray, margin: int) -> FemCase:
     """The contact-adaptive level after ``case`` (a level-0 case, or one with a
     ``ZoneRefinement`` of level L): the same surface with the cells of level L's finest grid
-    touching a node of ``contact`` (bool, that grid's shape), dilated by ``margin`` of those
+    at a node of ``contact`` (contact candidates, bool, that grid's shape), dilated by
+    ``margin`` of those
     cells, refined to level L + 1 (``geometry.adaptive.refinement_after``), 2:1 balanced; the
     blend zone as deep as the case meshes it (:func:`blend_depth_layers`)."""
     zone = refinement_after(case.mesh.refinement, contact, margin)
@@ -117,8 +118,9 @@ def level_memory_gb(case: FemCase, ranks: int) -> float:
 
 
 def contact_escaped(case: FemCase, contact: np.ndarray | None) -> bool:
-    """Whether the contact of a level's run (bool nodes on its finest grid) reached the edge of
-    its refined zone (``geometry.adaptive.zone_escaped``); never on a uniform level."""
+    """Whether the contact candidates of a level's run (bool nodes on its finest grid,
+    :class:`LevelRun`) reached a cell outside its refined zone
+    (``geometry.adaptive.zone_escaped``); never on a uniform level."""
     refinement = case.mesh.refinement
     if refinement is None or contact is None:
         return False
@@ -238,11 +240,13 @@ class LadderLimits:
         Level k + 1 is the contact-adaptive refinement of level k (:func:`adaptive_level_case`)
         or the uniform mesh 2^(k+1) times finer (:func:`level_case`).
     margin : int
-        Adaptive: cells of level k's finest grid (h / 2^k) by which its contact (end of the
-        preload or inception) is dilated to make level k + 1's zone [-], >= 0; doubled for the
-        levels after one whose contact reached its zone's edge (:func:`contact_escaped`).
-        Assumed: the contact of level k + 1 lies within this margin of level k's, its boundary
-        moving by O(h / 2^k) between levels.
+        Adaptive: cells of level k's finest grid (h / 2^k) by which its contact candidates
+        (:class:`LevelRun`) are dilated to make level k + 1's zone [-], >= 0; doubled for the
+        levels after one whose candidates reached a cell outside its zone
+        (:func:`contact_escaped`). Assumed: a patch's boundary moves by O(h / 2^k) between
+        levels k and k + 1, and a new patch appears only where the rigid flat overlapped the
+        undeformed surface at level k (the finer level's flat no lower than that by more than
+        the margin covers); a level that breaks this is flagged ``zone_escaped``.
     """
 
     tolerance: float | None = None
@@ -264,8 +268,9 @@ class LevelRun:
     """What a runner returns for one level: the ladder's quantity (mu_s, or A_r/A_n for a
     normal-only run) [-], the size of the level's problem (reduced dofs, hexahedra) [-],
     optionally ``save(ladder)``, called once the ladder including this level is known (to write
-    the level's results with the estimate), and the nodes in contact at the end of the preload
-    or at inception on the level's finest grid (bool; an adaptive ladder needs them)."""
+    the level's results with the estimate), and the level's contact candidates on its finest
+    grid (bool; an adaptive ladder needs them): the nodes in contact at the end of the preload
+    or at inception, and those the rigid flat overlaps (``solver.run.contact_candidates``)."""
 
     value: float
     reduced_dofs: int

@@ -1,13 +1,14 @@
 """The contact-adaptive block in a run: the all-zone mask is today's uniformly refined run."""
 
 from dataclasses import replace
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
 from roughfriction.case import FemCase, Loading, MeshOptions, ZoneRefinement
 from roughfriction.errors import InputError
 from roughfriction.geometry.adaptive import cells_at_nodes
-from roughfriction.geometry.surface import Surface
+from roughfriction.geometry.surface import Surface, bilinear_refine
 from roughfriction.studies.refinement import refined_case
 
 pytest.importorskip("dolfinx")
@@ -110,11 +111,20 @@ def test_the_next_level_refines_the_cells_around_the_last_level_s_contact():
     maps = {"contact_normal": np.zeros((16, 16), bool), "contact_sliding": np.zeros((16, 16), bool)}
     maps["contact_normal"][4, 6] = True
     maps["contact_sliding"][5, 6] = True
-    finer = next_level_case(case, FemRun(None, maps, None, None), margin=0)
+    above = SimpleNamespace(records=[SimpleNamespace(flat_height=SPACING)])  # over every peak
+    finer = next_level_case(case, FemRun(above, maps, None, None), margin=0)
     assert finer.mesh.refinement.level == 2
     zone = finer.mesh.refinement.zone
     assert zone.shape == (16, 16) and zone.sum() == 6 and zone[3:6, 5:7].all()
     assert finer.surface is case.surface and finer.mesh.fine_layers == case.mesh.fine_layers
+    # a flat that came down to the highest fine node overlaps it: its 4 cells join the zone
+    fine = bilinear_refine(case.surface.heights - case.surface.heights.mean(), 2)
+    peak = np.unravel_index(np.argmax(fine), fine.shape)
+    low = SimpleNamespace(records=[above.records[0], SimpleNamespace(flat_height=fine[peak])])
+    at_peak = cells_at_nodes(fine >= fine[peak])
+    zone = next_level_case(case, FemRun(low, maps, None, None), margin=0).mesh.refinement.zone
+    assert at_peak.sum() == 4 and not (at_peak & finer.mesh.refinement.zone).any()
+    np.testing.assert_array_equal(zone, at_peak | finer.mesh.refinement.zone)
 
 
 @pytest.mark.fem
@@ -137,3 +147,36 @@ def test_a_partial_zone_run_is_the_same_on_two_ranks():
     parallel = run(case, MPI.COMM_WORLD, progress=lambda record: None).result.records[-1]
     assert parallel.area_ratio == pytest.approx(serial.area_ratio, rel=1e-10, abs=0)
     assert parallel.flat_height == pytest.approx(serial.flat_height, rel=1e-8)
+
+
+#: Relative difference of mu_s allowed between the adaptive and the uniform level 1 where the
+#: zone holds every contact candidate [-]; a zone that misses one moves mu_s by several %.
+AGREEMENT = 1e-3
+
+
+@pytest.mark.fem
+def test_an_adaptive_level_gives_the_uniform_level_s_mu_s():
+    """G5's third 8 x 8 window at F* = 0.155 (4 nodes in contact at 1x): level 1 refined around
+    the 1x contact candidates (margin 0, so that the zone is partial) against the uniform 2x
+    mesh; the same level around the contact alone (a patch appears at 2x where the flat
+    overlapped the surface at 1x) and with no zone at all both miss it."""
+    from roughfriction.geometry.adaptive import refinement_after
+    from roughfriction.solver.run import contact_candidates, contact_nodes
+    from roughfriction.studies.paper import fem_surface
+    from roughfriction.studies.refinement import adaptive_level_case, level_case
+
+    case = FemCase(fem_surface("G5", 8, 3), Loading(0.155))
+    base = run(case, MPI.COMM_SELF, progress=lambda record: None)
+    adaptive = adaptive_level_case(case, contact_candidates(case, base), margin=0)
+    assert 16 <= adaptive.mesh.refinement.zone.sum() <= 48
+    contact_only = replace(case, mesh=replace(case.mesh, refinement=refinement_after(
+        None, contact_nodes(base.maps), 1)))
+    empty = replace(case, mesh=replace(case.mesh, refinement=ZoneRefinement(
+        1, np.zeros((8, 8), bool))))
+    mu_s = {name: run(level, MPI.COMM_SELF, progress=lambda record: None).result.mu_s
+            for name, level in (("uniform", level_case(case, 1)), ("adaptive", adaptive),
+                                ("contact only", contact_only), ("empty", empty))}
+    uniform = mu_s.pop("uniform")
+    assert mu_s.pop("adaptive") == pytest.approx(uniform, rel=AGREEMENT)
+    for name, missed in mu_s.items():
+        assert abs(missed - uniform) > 10 * AGREEMENT * uniform, name
