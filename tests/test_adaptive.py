@@ -13,6 +13,7 @@ from roughfriction.geometry.adaptive import (
     dilate,
     hanging_masters,
     node_coordinates,
+    overlapped_nodes,
     reduced_dofs,
     surface_levels,
     zone_escaped,
@@ -400,3 +401,13 @@ def test_contact_at_a_cell_outside_the_refined_zone_has_escaped(node, escaped):
     assert zone_escaped(levels, 1, contact) is escaped
     assert not zone_escaped(levels, 1, np.zeros((16, 16), bool))
     assert not zone_escaped(surface_levels(8, 1, np.ones((8, 8), bool)), 1, contact)
+
+
+def test_the_flat_overlaps_the_bilinear_surface_at_and_above_its_height():
+    heights = rough(4, 0.2 * SPACING, seed=5)
+    fine = bilinear_refine(heights - heights.mean(), 4)  # level 2
+    top = fine.max()
+    np.testing.assert_array_equal(overlapped_nodes(heights, 2, top), fine == top)
+    assert overlapped_nodes(heights, 2, fine.min()).all()
+    assert not overlapped_nodes(heights, 0, top + 1e-12).any()
+    assert overlapped_nodes(heights, 0, 0.0).sum() == (heights > heights.mean()).sum()
