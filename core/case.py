@@ -107,8 +107,9 @@ class MeshOptions:
         wavelength lambda decays like exp(-2 pi z / lambda): at one period the longest one is down
         to exp(-2 pi) ~ 0.2 %.
     refinement : ZoneRefinement, optional
-        Refine the surface zone only (``geometry.adaptive``); the layer counts above are then
-        in layers h thick of the surface's own grid, and the finest grid's layers follow
+        Refine the surface zone only (``geometry.adaptive``); ``blend_layers`` then counts
+        layers h thick of the surface's own grid (the blend zone is as deep at every level),
+        ``fine_layers`` layers of the finest grid (h / 2^L thick), and the layers follow
         ``geometry.adaptive.adaptive_layers``. None: the structured block of the surface's grid.
     """
 

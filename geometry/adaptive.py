@@ -7,18 +7,20 @@ surface zone (own cells of the zone mask) is refined to level L, the rest stays 
 2:1 balanced across edges and corners (periodically); a cell layer's cells are never finer than
 its stride (``layer_stride``), so the zone coarsens with depth.
 
-The vertical layering is global (one set of z-layers for the whole block, :func:`adaptive_layers`),
-graded towards the contact as ``--refine``'s uniform meshes are: ``fine_layers`` layers
-h / 2^L thick at the top, then two cubic layers per 2:1 level up to the own grid (h), own-grid
-layers down to ``max(fine_layers, blend_layers) h``, then today's coarsened levels
-(``geometry.mesh.layer_layout``). The blend zone, where the roughness fades linearly, is
-``blend_layers h`` deep in metres at every level (a node layer is put at its bottom). At L = 0
-this is today's layout. Why global z-layers: they keep every hanging node on a horizontal face
-(no vertical-face constraints, as an octree would need) and the blend map exact; the cost: the
-band of thin layers (``fine_layers + 2 (L - 1)`` of them, where a 1x block has one or two layers
-h thick) also runs outside the zone, through own-grid cells h wide, of aspect ratio 2^L : 1 in
-the finest layers (4:1 at 4x, 8:1 at 8x), 2^(L-1) : 1 in the next two, ... There the field is
-smooth on the scale h, and flat trilinear cells only stiffen its bending (parasitic shear).
+The vertical layering is global (one set of z-layers for the whole block, :func:`adaptive_layers`)
+and is the layering of the uniformly refined block (``studies.refinement.refined_case``): the
+own grid's ``geometry.mesh.layer_layout`` on the finest grid, with the blend zone, where the
+roughness fades linearly, ``blend_layers h`` deep in metres at every level
+(:func:`refined_layering`). So ``max(fine_layers, 2^L blend_layers)`` layers h / 2^L thick run
+from the surface through the blend zone, then the 2:1 coarsened levels follow. The zone refined
+everywhere is therefore the uniform ladder's level-L block; a partial zone keeps its cells in
+those layers and its own-grid cells elsewhere (aspect ratio 2^L : 1 in the fine layers: flat
+trilinear cells stiffen bending there, where the field is smooth on the scale h). Why global
+z-layers: they keep every hanging node on a horizontal face (no vertical-face constraints, as an
+octree would need) and the blend map exact. Why fine layers through the blend depth: the region
+down to a fixed physical depth is refined 2x per level, so that the levels converge to one
+continuum problem (a band graded from the surface would keep the cells at a depth h as wide at
+every level).
 
 Every level meshes the same continuous surface, the bilinear interpolant of the own-grid heights
 (``geometry.surface.bilinear_refine``), and the blend map z -> z + w(z) Z(x, y) is trilinear in
@@ -31,14 +33,12 @@ generalisation of ``geometry.mesh.interpolation_masters`` used by ``solver/perio
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, replace
 
 import numpy as np
-from roughfriction.case import MeshOptions
+from roughfriction.case import MeshOptions, ZoneRefinement
 from roughfriction.errors import InputError
 from roughfriction.geometry.mesh import (
-    COARSE_LAYERS_PER_LEVEL,
     CONTACT_MEMORY_PER_NODE_GB,
     MEMORY_PER_DOF_GB,
     MEMORY_PER_RANK_GB,
@@ -229,16 +229,19 @@ class AdaptiveLayout:
         return self.cells.num_layers
 
 
+def refined_layering(options: MeshOptions, factor: int) -> MeshOptions:
+    """The layering of a mesh ``factor`` times finer than the grid whose spacing h the
+    ``options`` count their blend layers in: a blend zone of the same depth in metres,
+    ``factor`` times the blend layers (each h / factor thick); the fine layers (h / factor
+    thick) as given; no zone."""
+    return replace(options, blend_layers=factor * options.blend_layers, refinement=None)
+
+
 def adaptive_layers(n: int, spacing: float, level: int, options: MeshOptions
                     ) -> tuple[np.ndarray, np.ndarray]:
     """Flat z of the node layers and the smallest lateral cell size of each cell layer of the
-    level-L block.
-
-    Top down: ``options.fine_layers`` layers h / 2^L thick (stride 1); for each stride s = 2,
-    4, .., 2^(L-1), ``COARSE_LAYERS_PER_LEVEL`` layers s h / 2^L thick; then the own grid's
-    ``geometry.mesh.layer_layout`` below that depth (own-grid layers to at least
-    ``max(fine_layers, blend_layers) h``, then its coarsened levels, down to the depth H), its
-    first layer cut at the band's bottom; a layer is split in two where the blend zone ends.
+    level-L block: ``geometry.mesh.layer_layout`` of the finest grid (n 2^L cells of
+    h / 2^L) with :func:`refined_layering` (blend zone ``blend_layers h`` deep).
 
     Parameters n, spacing, level and options as :func:`adaptive_layout`'s.
 
@@ -250,33 +253,7 @@ def adaptive_layers(n: int, spacing: float, level: int, options: MeshOptions
         Smallest lateral cell size of each cell layer [finest spacings], bottom to top.
     """
     factor = 1 << level
-    thickness, stride = [], []  # the band over the own grid, top down [m], [finest spacings]
-    if level > 0:
-        thickness, stride = [spacing / factor] * options.fine_layers, [1] * options.fine_layers
-    width = 2
-    while width < factor:
-        thickness += [width * spacing / factor] * COARSE_LAYERS_PER_LEVEL
-        stride += [width] * COARSE_LAYERS_PER_LEVEL
-        width *= 2
-    band = float(np.sum(thickness))
-    own_layers = max(options.fine_layers, options.blend_layers, math.ceil(band / spacing - 1e-9))
-    own_z, own_stride = layer_layout(n, spacing, replace(options, fine_layers=own_layers))
-    tolerance = 1e-9 * spacing / factor
-    below = own_z[own_z < -band - tolerance]
-    layer_z = np.concatenate([below, -np.cumsum(thickness)[::-1], [0.0]])
-    middle = 0.5 * (below + np.append(below[1:], -band))
-    layer_stride = np.concatenate([own_stride[np.searchsorted(own_z, middle) - 1] * factor,
-                                   stride[::-1]]).astype(np.int64)
-    return _split_at(layer_z, layer_stride, -options.blend_layers * spacing, tolerance)
-
-
-def _split_at(layer_z: np.ndarray, layer_stride: np.ndarray, z: float, tolerance: float
-              ) -> tuple[np.ndarray, np.ndarray]:
-    """The layers with a node layer at z [m] (the cell layer around it split in two)."""
-    if np.min(np.abs(layer_z - z)) <= tolerance:
-        return layer_z, layer_stride
-    layer = np.searchsorted(layer_z, z) - 1
-    return (np.insert(layer_z, layer + 1, z), np.insert(layer_stride, layer, layer_stride[layer]))
+    return layer_layout(n * factor, spacing / factor, refined_layering(options, factor))
 
 
 def adaptive_layout(n: int, spacing: float, level: int, zone: np.ndarray,
@@ -299,15 +276,58 @@ def adaptive_layout(n: int, spacing: float, level: int, zone: np.ndarray,
     """
     if isinstance(level, bool) or int(level) != level or level < 0:
         raise InputError(f"refinement level must be an integer >= 0, got {level!r}")
+    layer_z, layer_stride = adaptive_layers(n, spacing, level, options)
+    cells = CellSizes(surface_levels(n, level, zone), level, layer_stride)
+    return AdaptiveLayout(n, spacing, cells, layer_z, options.blend_layers * spacing)
+
+
+def surface_levels(n: int, level: int, zone: np.ndarray) -> np.ndarray:
+    """Level of the surface cell covering each finest cell (:func:`balanced_levels`) of an
+    n x n surface with ``zone`` (own cells, or cells of a level m <= L) refined to ``level``,
+    shape (n 2^L, n 2^L), int8."""
     zone = np.asarray(zone, dtype=bool)
     zone_levels = {n << m: m for m in range(level + 1)}
     if zone.ndim != 2 or zone.shape[0] != zone.shape[1] or zone.shape[0] not in zone_levels:
         raise InputError(f"refinement zone must be n 2^m x n 2^m cells with n = {n}, "
                          f"0 <= m <= {level}; got {zone.shape}")
-    layer_z, layer_stride = adaptive_layers(n, spacing, level, options)
-    cells = CellSizes(balanced_levels(zone, level, zone_levels[zone.shape[0]]), level,
-                      layer_stride)
-    return AdaptiveLayout(n, spacing, cells, layer_z, options.blend_layers * spacing)
+    return balanced_levels(zone, level, zone_levels[zone.shape[0]])
+
+
+def zone_escaped(levels: np.ndarray, level: int, contact: np.ndarray) -> bool:
+    """Whether contact reached the edge of the refined zone: a surface cell coarser than
+    ``level`` (2:1 transition or own grid) has a node in ``contact`` as a corner.
+
+    Parameters
+    ----------
+    levels : numpy.ndarray
+        Surface cell levels on the finest grid (:func:`surface_levels`), shape (N, N).
+    level : int
+        L [-].
+    contact : numpy.ndarray
+        Nodes in contact on the finest grid, bool, shape (N, N) (a coarse face's interior grid
+        points are never in contact: its corners are).
+    """
+    return bool(np.any(cells_at_nodes(contact) & (np.asarray(levels) < level)))
+
+
+def overlapped_nodes(heights: np.ndarray, level: int, flat_height: float) -> np.ndarray:
+    """Nodes of level L's finest grid where a rigid flat at ``flat_height`` [m] above the mean
+    plane overlaps the undeformed surface: the mean-free bilinear surface of the own-grid
+    ``heights`` (n, n) [m] at or above it. Under a compressive load the surface only moves
+    down (Boussinesq), so a node can touch the flat at that height only if it is one of
+    these: bool, shape (n 2^L, n 2^L)."""
+    heights = np.asarray(heights, dtype=float)
+    return bilinear_refine(heights - heights.mean(), 1 << level) >= flat_height
+
+
+def refinement_after(refinement: ZoneRefinement | None, contact: np.ndarray, margin: int
+                     ) -> ZoneRefinement:
+    """The zone refinement one level finer than ``refinement`` (None: the structured block,
+    level 0): level L + 1 over the cells of level L's finest grid (h / 2^L) touching a node in
+    ``contact`` (bool, that grid's shape), dilated by ``margin`` of those cells
+    (:func:`cells_at_nodes`)."""
+    level = 0 if refinement is None else refinement.level
+    return ZoneRefinement(level + 1, cells_at_nodes(np.asarray(contact, dtype=bool), margin))
 
 
 def _corners(i0: np.ndarray, j0: np.ndarray, width: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

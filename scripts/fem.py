@@ -17,7 +17,9 @@ Error on request: ``--tol REL`` runs the same (bilinear) surface on meshes 1x, 2
 finer (``studies.refinement.run_ladder``) until the estimated relative error of mu_s is at most
 REL; ``--max-level``, ``--max-memory`` and ``--max-time`` bound it, and when they stop it short
 the finest level is written with its estimate and the command exits 3 with one line. ``--refine``
-is the same ladder through 2x without a tolerance.
+is the same ladder through 2x without a tolerance. ``--ladder adaptive`` (default) refines each
+level where the level before was in contact (``geometry.adaptive``), ``--ladder uniform``
+everywhere.
 
 A run writes every step and its inputs to an HDF5 file (``--output``, on rank 0) and returns the
 JSON summary. If the preload or the sliding does not converge, the partial results are written,
@@ -50,9 +52,11 @@ from roughfriction.geometry.surface import Surface, surface_on_fem_grid, validat
 from roughfriction.material import Material
 from roughfriction.studies.refinement import (
     DEFAULT_MAX_LEVEL,
+    LADDERS,
     LadderLimits,
     LevelRun,
     ToleranceNotMet,
+    level_memory_gb,
     run_ladder,
 )
 
@@ -85,6 +89,11 @@ def add_fem_arguments(parser: argparse.ArgumentParser) -> None:
                         "error of mu_s (normal-only: of A_r/A_n) is at most REL, e.g. 0.03; "
                         "order observed from the last three levels, assumed first order with "
                         "two; exit 3 with the best estimate when a limit stops it")
+    parser.add_argument("--ladder", choices=LADDERS,
+                        help="with --tol or --refine: each level refines the contact of the one "
+                        "before 2x (adaptive, the default: cells at a node in contact after the "
+                        "preload or at inception, or overlapped by the rigid flat, plus a "
+                        "margin) or the whole surface (uniform)")
     parser.add_argument("--max-level", type=_level, metavar="L",
                         help=f"with --tol: finest mesh 2^L times finer (default "
                         f"{DEFAULT_MAX_LEVEL})")
@@ -231,14 +240,17 @@ DIGEST_LENGTH = 8
 
 def run_labels(args) -> tuple[str, ...]:
     """What the command line adds to the case in the results name: the window (``window3``,
-    ``windowbest``), ``refined`` (the run is the 2x finer mesh) and the tolerance with its
-    finest level (``tol0.03_L3``)."""
+    ``windowbest``), ``refined`` (the run is the 2x finer mesh), the tolerance with its
+    finest level (``tol0.03_L3``) and, for either, a ``uniform`` ladder."""
     window = getattr(args, "window", None)
     tolerance = getattr(args, "tol", None)
+    refine = getattr(args, "refine", False)
     level = getattr(args, "max_level", None) or DEFAULT_MAX_LEVEL
+    uniform = (refine or tolerance is not None) and getattr(args, "ladder", None) == "uniform"
     return ((f"window{window}",) if window is not None else ()) + (
-        ("refined",) if getattr(args, "refine", False) else ()) + (
-        (f"tol{tolerance:g}_L{level}",) if tolerance is not None else ())
+        ("refined",) if refine else ()) + (
+        (f"tol{tolerance:g}_L{level}",) if tolerance is not None else ()) + (
+        ("uniform",) if uniform else ())
 
 
 def default_output(case: FemCase, labels: tuple[str, ...] = ()) -> Path:
@@ -349,6 +361,8 @@ def ladder_limits(args, comm) -> LadderLimits | None:
     limited = [f"--{name.replace('_', '-')}" for name in ("max_level", "max_memory", "max_time")
                if getattr(args, name, None) is not None]
     if tolerance is None and not args.refine:
+        if getattr(args, "ladder", None) is not None:
+            raise InputError("--ladder applies to --tol or --refine")
         if limited:
             raise InputError(f"{', '.join(limited)} limit{'s' * (len(limited) == 1)} --tol: "
                              "give a tolerance")
@@ -358,19 +372,20 @@ def ladder_limits(args, comm) -> LadderLimits | None:
                          "--refine, not both")
     max_memory = min(args.max_memory or math.inf, available_memory_gb(comm))
     return LadderLimits(tolerance, 1 if args.refine else (args.max_level or DEFAULT_MAX_LEVEL),
-                        max_memory, 60.0 * (args.max_time or math.inf))
+                        max_memory, 60.0 * (args.max_time or math.inf),
+                        ladder=getattr(args, "ladder", None) or LADDERS[0])
 
 
 def run_levels(case: FemCase, outputs: FemOutputs, limits: LadderLimits, meshed: dict,
                comm) -> dict:
-    """Run the case on finer and finer meshes (:func:`studies.refinement.run_ladder`): each
+    """Run the case on finer and finer meshes (:func:`studies.refinement.run_ladder`, uniform
+    or contact-adaptive as ``limits.ladder`` says): each
     level is written as soon as its estimate is known to ``outputs.results`` (``--refine``:
     level 0 to ``outputs.coarse``), the finest replacing the one before; fields (``--xdmf``)
     are those of level 0. Returns the finest level's summary with the estimate and the
     per-level columns; raises :class:`ToleranceNotMet` (exit 3, after writing) when a limit
     stopped the ladder short of the tolerance or of an estimate."""
-    from roughfriction.geometry.mesh import estimated_memory_gb
-    from roughfriction.solver.run import run
+    from roughfriction.solver.run import contact_candidates, run
 
     finest = {}  # the summary of the last level run
 
@@ -388,11 +403,11 @@ def run_levels(case: FemCase, outputs: FemOutputs, limits: LadderLimits, meshed:
 
         key = "area_ratio_normal" if level_case.loading.normal_only else "mu_s"
         sizes = fem_run.result.sizes
-        return LevelRun(summary[key], sizes["reduced_dofs"], sizes["cells"], save)
+        return LevelRun(summary[key], sizes["reduced_dofs"], sizes["cells"], save,
+                        contact_candidates(level_case, fem_run))
 
     ladder = run_ladder(case, run_level, limits,
-                        lambda level_case: estimated_memory_gb(level_case.surface.n,
-                                                               level_case.mesh, comm.size))
+                        lambda level_case: level_memory_gb(level_case, comm.size))
     if not ladder.met:
         raise ToleranceNotMet(f"{ladder.shortfall()} (results in {outputs.results})")
     summary = {**finest, **ladder.summary(), **meshed}

@@ -13,9 +13,15 @@ from pathlib import Path
 
 import numpy as np
 from mpi4py import MPI
-from roughfriction.case import FemCase, Loading, MeshOptions, ZoneRefinement
+from roughfriction.case import FemCase, Loading, MeshOptions
 from roughfriction.errors import InputError
-from roughfriction.geometry.adaptive import AdaptiveLayout, CellSizes, cells_at_nodes, layout_dofs
+from roughfriction.geometry.adaptive import (
+    AdaptiveLayout,
+    CellSizes,
+    layout_dofs,
+    overlapped_nodes,
+    refinement_after,
+)
 from roughfriction.geometry.adaptive import estimated_memory_gb as adaptive_memory_gb
 from roughfriction.geometry.mesh import Block, blend_layers_needed, estimated_memory_gb, mesh_size
 from roughfriction.solver.block import block_layout, build_block
@@ -94,18 +100,34 @@ def check_memory(n: int, options: MeshOptions, comm: MPI.Comm,
                          "refinement or more nodes")
 
 
+def contact_nodes(maps: dict) -> np.ndarray:
+    """Nodes in contact at the end of the preload or at inception (when reached): the union of
+    ``FemRun.maps``' "contact_normal" and "contact_sliding", bool, on the finest grid."""
+    contact = np.asarray(maps["contact_normal"], dtype=bool)
+    if "contact_sliding" in maps:
+        contact = contact | np.asarray(maps["contact_sliding"], dtype=bool)
+    return contact
+
+
+def contact_candidates(case: FemCase, fem_run: FemRun) -> np.ndarray:
+    """Where a finer mesh of ``case`` may be in contact, on the run's finest grid (bool): the
+    nodes in contact (:func:`contact_nodes`) and those the rigid flat overlaps at its lowest
+    position of the run (``geometry.adaptive.overlapped_nodes``), which a more compliant mesh
+    may bring into contact although this one does not."""
+    refinement = case.mesh.refinement
+    lowest = min(record.flat_height for record in fem_run.result.records)
+    overlapped = overlapped_nodes(case.surface.heights, refinement.level if refinement else 0,
+                                  lowest)
+    return contact_nodes(fem_run.maps) | overlapped
+
+
 def next_level_case(case: FemCase, fem_run: FemRun, margin: int = 1) -> FemCase:
     """The case one contact-adaptive level finer than ``fem_run``'s (the run of ``case``):
     refinement level L + 1 (L = 0 on the structured block) over the cells of the run's finest
-    grid (h / 2^L) touching a node in contact at the end of the preload or at inception,
-    dilated by ``margin`` of those cells for the junction growth
-    (``geometry.adaptive.cells_at_nodes``)."""
-    contact = np.asarray(fem_run.maps["contact_normal"], dtype=bool)
-    if "contact_sliding" in fem_run.maps:
-        contact = contact | np.asarray(fem_run.maps["contact_sliding"], dtype=bool)
-    refinement = case.mesh.refinement
-    level = 1 if refinement is None else refinement.level + 1
-    zone = ZoneRefinement(level, cells_at_nodes(contact, margin))
+    grid (h / 2^L) at its contact candidates (:func:`contact_candidates`: in contact at the end
+    of the preload or at inception, or overlapped by the rigid flat), dilated by ``margin`` of
+    those cells for the junction growth (``geometry.adaptive.refinement_after``)."""
+    zone = refinement_after(case.mesh.refinement, contact_candidates(case, fem_run), margin)
     return replace(case, mesh=replace(case.mesh, refinement=zone))
 
 

@@ -15,8 +15,13 @@ two meshes that is an assumption (p = 1 is the conservative choice for a contact
 at points: its error is proportional to the contact perimeter times the spacing).
 
 :func:`run_ladder` adds levels (1x, 2x, 4x, ...) until the estimate of the finest value is
-within a relative tolerance, or a limit (level, memory, time) stops it; :func:`level_case` is
-the one place where the case of level k is made.
+within a relative tolerance, or a limit (level, memory, time) stops it. A level is either the
+uniform mesh 2^k times finer (:func:`level_case`) or, by default, the contact-adaptive
+refinement of the level before (:func:`adaptive_level_case`: its contact at the end of the
+preload and at inception, dilated by a margin, refined 2x); :func:`next_level` is the one place
+where the case of level k + 1 is made. Both mesh the same layering (the adaptive block refined
+everywhere is the uniform one, ``geometry.adaptive.refined_layering``), so that the two ladders
+differ only by where the surface is refined.
 """
 
 from __future__ import annotations
@@ -26,9 +31,20 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass, replace
 
+import numpy as np
 from roughfriction.case import FemCase
-from roughfriction.errors import ConvergenceError
-from roughfriction.geometry.mesh import blend_layers_needed, mesh_size
+from roughfriction.errors import ConvergenceError, InputError
+from roughfriction.geometry.adaptive import (
+    AdaptiveLayout,
+    adaptive_layout,
+    layout_dofs,
+    refined_layering,
+    refinement_after,
+    surface_levels,
+    zone_escaped,
+)
+from roughfriction.geometry.adaptive import estimated_memory_gb as adaptive_memory_gb
+from roughfriction.geometry.mesh import blend_layers_needed, estimated_memory_gb, mesh_size
 from roughfriction.geometry.surface import Surface, bilinear_refine
 
 #: Order assumed with two meshes [-].
@@ -46,23 +62,83 @@ def blend_depth_layers(case: FemCase) -> int:
 
 def refined_case(case: FemCase, factor: int) -> FemCase:
     """The case on a mesh ``factor`` times finer: the same (bilinear) surface, sampled finer,
-    and a blend zone of the same physical depth, ``factor`` times the layers the case meshes
-    (:func:`blend_depth_layers`, each h / factor thick), or more where the finer valleys need
-    them (:func:`geometry.mesh.blend_layers_needed`)."""
+    and the layering of ``geometry.adaptive.refined_layering`` (the layering of the adaptive
+    block refined everywhere): a blend zone of the same physical depth, ``factor`` times the
+    layers the case meshes (:func:`blend_depth_layers`, each h / factor thick), or more where
+    the finer valleys need them (:func:`geometry.mesh.blend_layers_needed`)."""
     if factor == 1:
         return case
     surface = case.surface
     fine = Surface(bilinear_refine(surface.heights, factor), surface.spacing / factor,
                    surface.name)
-    blend_layers = max(factor * blend_depth_layers(case),
-                       blend_layers_needed(fine.heights, fine.spacing))
-    return replace(case, surface=fine, mesh=replace(case.mesh, blend_layers=blend_layers))
+    mesh = refined_layering(replace(case.mesh, blend_layers=blend_depth_layers(case)), factor)
+    blend_layers = max(mesh.blend_layers, blend_layers_needed(fine.heights, fine.spacing))
+    return replace(case, surface=fine, mesh=replace(mesh, blend_layers=blend_layers))
 
 
 def level_case(case: FemCase, level: int) -> FemCase:
-    """The case of level ``level`` of a ladder (level 0: the case itself): today the uniform
-    mesh :data:`LADDER_RATIO` ** level times finer (:func:`refined_case`)."""
+    """The case of level ``level`` of a uniform ladder (level 0: the case itself): the mesh
+    :data:`LADDER_RATIO` ** level times finer (:func:`refined_case`)."""
     return refined_case(case, LADDER_RATIO**level)
+
+
+def adaptive_level_case(case: FemCase, contact: np.ndarray, margin: int) -> FemCase:
+    """The contact-adaptive level after ``case`` (a level-0 case, or one with a
+    ``ZoneRefinement`` of level L): the same surface with the cells of level L's finest grid
+    at a node of ``contact`` (contact candidates, bool, that grid's shape), dilated by
+    ``margin`` of those
+    cells, refined to level L + 1 (``geometry.adaptive.refinement_after``), 2:1 balanced; the
+    blend zone as deep as the case meshes it (:func:`blend_depth_layers`)."""
+    zone = refinement_after(case.mesh.refinement, contact, margin)
+    return replace(case, mesh=replace(case.mesh, blend_layers=blend_depth_layers(case),
+                                      refinement=zone))
+
+
+def level_layout(case: FemCase) -> AdaptiveLayout | None:
+    """The adaptive layout of a case with a ``ZoneRefinement``, else None."""
+    refinement, surface = case.mesh.refinement, case.surface
+    if refinement is None:
+        return None
+    return adaptive_layout(surface.n, surface.spacing, refinement.level, refinement.zone,
+                           case.mesh)
+
+
+def level_dofs(case: FemCase) -> int:
+    """Reduced dofs of a case's block, structured or adaptive [-]."""
+    layout = level_layout(case)
+    return mesh_size(case.surface.n, case.mesh)[1] if layout is None else layout_dofs(layout)
+
+
+def level_memory_gb(case: FemCase, ranks: int) -> float:
+    """Estimated peak memory of a case's run on ``ranks`` ranks, structured or adaptive [GB]."""
+    layout = level_layout(case)
+    if layout is None:
+        return estimated_memory_gb(case.surface.n, case.mesh, ranks)
+    return adaptive_memory_gb(layout, ranks)
+
+
+def contact_escaped(case: FemCase, contact: np.ndarray | None) -> bool:
+    """Whether the contact candidates of a level's run (bool nodes on its finest grid,
+    :class:`LevelRun`) reached a cell outside its refined zone
+    (``geometry.adaptive.zone_escaped``); never on a uniform level."""
+    refinement = case.mesh.refinement
+    if refinement is None or contact is None:
+        return False
+    levels = surface_levels(case.surface.n, refinement.level, refinement.zone)
+    return zone_escaped(levels, refinement.level, contact)
+
+
+def next_level(case: FemCase, level: int, current: FemCase, contact: np.ndarray | None,
+               limits: LadderLimits, margin: int) -> FemCase:
+    """The case of level ``level + 1`` of a ladder from ``case`` (level 0), after ``current``
+    (level ``level``): ``limits.ladder`` "uniform": :func:`level_case`; "adaptive":
+    :func:`adaptive_level_case` of ``current`` around its run's ``contact`` with ``margin``
+    [cells of level ``level``'s finest grid]."""
+    if limits.ladder == "uniform":
+        return level_case(case, level + 1)
+    if contact is None:
+        raise ValueError("an adaptive ladder needs each level's contact map")
+    return adaptive_level_case(current, contact, margin)
 
 
 def next_mesh(case: FemCase) -> FemCase:
@@ -136,9 +212,16 @@ class ToleranceNotMet(ConvergenceError):
     allows (the results of the finest level are written; the CLI exits with status 3)."""
 
 
+#: How a ladder makes its levels: the contact-adaptive refinement of the level before, or the
+#: uniform mesh 2^k times finer.
+LADDERS = ("adaptive", "uniform")
+#: Margin around a level's contact, in cells of its finest grid, of the next level's zone [-].
+DEFAULT_MARGIN = 1
+
+
 @dataclass(frozen=True)
 class LadderLimits:
-    """What a ladder may spend.
+    """What a ladder may spend, and how it refines.
 
     Attributes
     ----------
@@ -152,31 +235,55 @@ class LadderLimits:
     max_time_s : float
         Wall time of the whole ladder [s]; a level is not started when the time of the
         previous one, scaled by the ratio of dofs, would take the ladder past it.
+
+    ladder : {"adaptive", "uniform"}
+        Level k + 1 is the contact-adaptive refinement of level k (:func:`adaptive_level_case`)
+        or the uniform mesh 2^(k+1) times finer (:func:`level_case`).
+    margin : int
+        Adaptive: cells of level k's finest grid (h / 2^k) by which its contact candidates
+        (:class:`LevelRun`) are dilated to make level k + 1's zone [-], >= 0; doubled for the
+        levels after one whose candidates reached a cell outside its zone
+        (:func:`contact_escaped`). Assumed: a patch's boundary moves by O(h / 2^k) between
+        levels k and k + 1, and a new patch appears only where the rigid flat overlapped the
+        undeformed surface at level k (the finer level's flat no lower than that by more than
+        the margin covers); a level that breaks this is flagged ``zone_escaped``.
     """
 
     tolerance: float | None = None
     max_level: int = DEFAULT_MAX_LEVEL
     max_memory_gb: float = math.inf
     max_time_s: float = math.inf
+    ladder: str = "adaptive"
+    margin: int = DEFAULT_MARGIN
+
+    def __post_init__(self):
+        if self.ladder not in LADDERS:
+            raise InputError(f"ladder must be one of {', '.join(LADDERS)}, got {self.ladder!r}")
+        if isinstance(self.margin, bool) or int(self.margin) != self.margin or self.margin < 0:
+            raise InputError(f"zone margin must be an integer >= 0 cells, got {self.margin!r}")
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class LevelRun:
     """What a runner returns for one level: the ladder's quantity (mu_s, or A_r/A_n for a
-    normal-only run) [-], the size of the level's problem (reduced dofs, hexahedra) [-], and
+    normal-only run) [-], the size of the level's problem (reduced dofs, hexahedra) [-],
     optionally ``save(ladder)``, called once the ladder including this level is known (to write
-    the level's results with the estimate)."""
+    the level's results with the estimate), and the level's contact candidates on its finest
+    grid (bool; an adaptive ladder needs them): the nodes in contact at the end of the preload
+    or at inception, and those the rigid flat overlaps (``solver.run.contact_candidates``)."""
 
     value: float
     reduced_dofs: int
     cells: int
     save: Callable | None = None
+    contact: np.ndarray | None = None
 
 
 @dataclass(frozen=True)
 class Level:
     """One finished level: its number, refinement factor [-], quantity [-], reduced dofs and
-    hexahedra [-], and wall time (mesh, preload and sliding) [s]."""
+    hexahedra [-], wall time (mesh, preload and sliding) [s], and whether its contact reached
+    the edge of its refined zone (:func:`contact_escaped`)."""
 
     level: int
     factor: int
@@ -184,6 +291,7 @@ class Level:
     reduced_dofs: int
     cells: int
     wall_s: float
+    zone_escaped: bool = False
 
 
 @dataclass(frozen=True)
@@ -222,13 +330,15 @@ class Ladder:
     def summary(self) -> dict:
         """The quantity of the finest level with its error (``<key>_error``,
         ``<key>_extrapolated``, ``<key>_coarse``: the level before), the order used, the
-        tolerance and the per-level columns (``levels``)."""
+        tolerance, the ladder ("adaptive" or "uniform") and the per-level columns
+        (``levels``)."""
         key, estimate = self.key, self.estimate
-        columns = {"factor": [], "reduced_dofs": [], "cells": [], key: [], "wall_s": []}
+        columns = {"factor": [], "reduced_dofs": [], "cells": [], key: [], "wall_s": [],
+                   "zone_escaped": []}
         for level in self.levels:
             for name, value in (("factor", level.factor), ("reduced_dofs", level.reduced_dofs),
                                 ("cells", level.cells), (key, level.value),
-                                ("wall_s", level.wall_s)):
+                                ("wall_s", level.wall_s), ("zone_escaped", level.zone_escaped)):
                 columns[name].append(value)
         values = columns[key]
         return {
@@ -242,6 +352,7 @@ class Ladder:
             "error_tolerance": self.limits.tolerance,
             "error_tolerance_met": self.met,
             "error_stopped": self.stopped,
+            "error_ladder": self.limits.ladder,
             "levels": columns,
         }
 
@@ -283,7 +394,7 @@ def level_refused(case: FemCase, last: Level, elapsed_s: float, limits: LadderLi
     if needed > limits.max_memory_gb:
         return (f"the {factor}x level needs about {needed:.3g} GB, {limits.max_memory_gb:.3g} "
                 "GB are allowed (--max-memory, or what is available)")
-    predicted = last.wall_s * mesh_size(case.surface.n, case.mesh)[1] / last.reduced_dofs
+    predicted = last.wall_s * level_dofs(case) / last.reduced_dofs
     if elapsed_s + predicted > limits.max_time_s:
         return (f"the {factor}x level would take about {predicted / 60:.3g} min after "
                 f"{elapsed_s / 60:.3g} min, {limits.max_time_s / 60:.3g} min are allowed "
@@ -294,16 +405,19 @@ def level_refused(case: FemCase, last: Level, elapsed_s: float, limits: LadderLi
 def run_ladder(case: FemCase, run_level: Callable[[int, FemCase], LevelRun],
                limits: LadderLimits, memory_gb: Callable[[FemCase], float],
                clock: Callable[[], float] = time.perf_counter) -> Ladder:
-    """Run levels 0, 1, ... (:func:`level_case`) until the estimated relative error of the
-    finest value is within ``limits.tolerance`` (without a tolerance: through
-    ``limits.max_level``), or a limit refuses the next level (:func:`level_refused`).
+    """Run levels 0, 1, ... (:func:`next_level`: uniform or contact-adaptive, as
+    ``limits.ladder`` says) until the estimated relative error of the finest value is within
+    ``limits.tolerance`` (without a tolerance: through ``limits.max_level``), or a limit refuses
+    the next level (:func:`level_refused`). A level whose contact reached the edge of its zone
+    is marked ``zone_escaped`` and doubles the margin of the levels after it.
 
     Parameters
     ----------
     case : FemCase
         Level 0.
     run_level : callable
-        ``run_level(level, level_case)`` runs one level and returns its :class:`LevelRun`.
+        ``run_level(level, level_case)`` runs one level and returns its :class:`LevelRun`
+        (with its contact map for an adaptive ladder).
     limits : LadderLimits
         Tolerance and limits.
     memory_gb : callable
@@ -314,17 +428,19 @@ def run_ladder(case: FemCase, run_level: Callable[[int, FemCase], LevelRun],
     key = "area_ratio_normal" if case.loading.normal_only else "mu_s"
     started = clock()
     levels: list[Level] = []
-    current = level_case(case, 0)
+    current, margin = case, limits.margin
     while True:
         level, mark = len(levels), clock()
         outcome = run_level(level, current)
+        escaped = contact_escaped(current, outcome.contact)
         levels.append(Level(level, LADDER_RATIO**level, outcome.value, outcome.reduced_dofs,
-                            outcome.cells, clock() - mark))
+                            outcome.cells, clock() - mark, escaped))
         estimate = ladder_estimate(v.value for v in levels)
         ladder = Ladder(key, tuple(levels), estimate, limits)
         done = ladder.met if limits.tolerance is not None else level >= limits.max_level
         if not done:
-            current = level_case(case, level + 1)
+            margin = 2 * margin if escaped else margin
+            current = next_level(case, level, current, outcome.contact, limits, margin)
             stopped = level_refused(current, levels[-1], clock() - started, limits, memory_gb)
             ladder = replace(ladder, stopped=stopped)
         if outcome.save is not None:

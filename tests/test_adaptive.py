@@ -13,7 +13,10 @@ from roughfriction.geometry.adaptive import (
     dilate,
     hanging_masters,
     node_coordinates,
+    overlapped_nodes,
     reduced_dofs,
+    surface_levels,
+    zone_escaped,
 )
 from roughfriction.geometry.mesh import (
     MIN_JACOBIAN_RATIO,
@@ -72,29 +75,34 @@ def test_an_all_zone_mask_gives_the_structured_block_of_its_layers(level, option
     # node layer k >= 1 holds its own dofs at the stride of the cell layer under it
     assert reduced_dofs(grid, layout.cells) == 3 * sum((big_n // s) ** 2
                                                        for s in layout.cells.layer_stride)
-    # graded to the surface as --refine's meshes: fine_layers layers h / 2^L thick on top
+    # --refine's meshes: max(fine_layers, 2^L blend_layers) layers h / 2^L thick on top
     thickness = np.diff(layout.layer_z)[::-1]
-    np.testing.assert_allclose(thickness[:options.fine_layers], SPACING / 2**level)
+    fine = max(options.fine_layers, 2**level * options.blend_layers)
+    np.testing.assert_allclose(thickness[:fine], SPACING / 2**level)
     assert np.all(thickness >= SPACING / 2**level * (1 - 1e-12))
 
 
-def test_an_all_zone_mask_gives_today_s_block_of_the_re_gridded_surface():
-    """Where the layerings coincide (4x, 4 fine layers, the blend h = 4 layers h / 4 deep),
-    the adaptive block is today's block of the 4x re-gridded bilinear surface."""
-    n, level = 4, 2
+@pytest.mark.parametrize("level", [1, 2])
+@pytest.mark.parametrize("options", LAYERINGS)
+def test_an_all_zone_mask_gives_today_s_block_of_the_re_gridded_surface(level, options):
+    """The adaptive block refined everywhere is today's block of the 2^L re-gridded bilinear
+    surface with a blend zone as deep in metres (2^L times the layers)."""
+    n, factor = 4, 2**level
     heights = rough(n, 0.2 * SPACING, seed=8)
-    layout = adaptive_layout(n, SPACING, level, np.ones((n, n), bool),
-                             MeshOptions(fine_layers=4, blend_layers=1))
-    today = MeshOptions(fine_layers=4, blend_layers=4)
-    layer_z, layer_stride = layer_layout(4 * n, SPACING / 4, today)
+    layout = adaptive_layout(n, SPACING, level, np.ones((n, n), bool), options)
+    blend = factor * options.blend_layers
+    today = MeshOptions(fine_layers=options.fine_layers, blend_layers=blend,
+                        coarsen=options.coarsen, growth=options.growth, depth=options.depth)
+    layer_z, layer_stride = layer_layout(factor * n, SPACING / factor, today)
     np.testing.assert_allclose(layout.layer_z, layer_z, rtol=0, atol=1e-18)
     np.testing.assert_array_equal(layout.cells.layer_stride, layer_stride)
     grid, hexahedra = adaptive_block(layout.cells)
-    assert as_sets(grid, hexahedra) == as_sets(*structured_block(4 * n, layer_stride))
-    fine = bilinear_refine(heights, 4)
+    assert as_sets(grid, hexahedra) == as_sets(*structured_block(factor * n, layer_stride))
+    fine = bilinear_refine(heights, factor)
     fine -= fine.mean()
     i, j, k = grid.T
-    expected_z = layer_z[k] + blend_weight(k, len(layer_stride), 4) * fine[i % (4 * n), j % (4 * n)]
+    expected_z = layer_z[k] + blend_weight(k, len(layer_stride), blend) * fine[i % (factor * n),
+                                                                             j % (factor * n)]
     np.testing.assert_allclose(node_coordinates(layout, grid, heights)[:, 2], expected_z,
                                rtol=0, atol=1e-18)
 
@@ -376,3 +384,30 @@ def test_the_cells_at_a_contact_node_are_its_four_cells_dilated_periodically():
     assert set(zip(*np.nonzero(cells), strict=True)) == {(5, 2), (5, 3), (0, 2), (0, 3)}
     wider = cells_at_nodes(nodes, margin=1)
     assert wider.sum() == 16 and wider[4, 1] and wider[1, 4] and not wider[2, 2]
+
+
+@pytest.mark.parametrize(("node", "escaped"), [
+    ((6, 6), False), ((9, 6), False),  # inside the zone, the second on its last fine cells
+    ((10, 6), True), ((4, 4), True),  # a corner of a cell outside; the zone's corner
+])
+def test_contact_at_a_cell_outside_the_refined_zone_has_escaped(node, escaped):
+    """Own cells 2..4 refined once: fine cells 4..9 are at level 1, the rest coarser."""
+    zone = np.zeros((8, 8), bool)
+    zone[2:5, 2:5] = True
+    levels = surface_levels(8, 1, zone)
+    assert (levels == 1).sum() == 36
+    contact = np.zeros((16, 16), bool)
+    contact[node] = True
+    assert zone_escaped(levels, 1, contact) is escaped
+    assert not zone_escaped(levels, 1, np.zeros((16, 16), bool))
+    assert not zone_escaped(surface_levels(8, 1, np.ones((8, 8), bool)), 1, contact)
+
+
+def test_the_flat_overlaps_the_bilinear_surface_at_and_above_its_height():
+    heights = rough(4, 0.2 * SPACING, seed=5)
+    fine = bilinear_refine(heights - heights.mean(), 4)  # level 2
+    top = fine.max()
+    np.testing.assert_array_equal(overlapped_nodes(heights, 2, top), fine == top)
+    assert overlapped_nodes(heights, 2, fine.min()).all()
+    assert not overlapped_nodes(heights, 0, top + 1e-12).any()
+    assert overlapped_nodes(heights, 0, 0.0).sum() == (heights > heights.mean()).sum()

@@ -52,7 +52,7 @@ def test_a_tolerance_out_of_reach_exits_3_with_the_best_estimate_and_the_file(tm
     assert "at 4x" in last and "--max-level 2" in last and str(output) in last
     with h5py.File(output) as h5:
         summary = json.loads(h5.attrs["summary"])
-        assert json.loads(h5.attrs["inputs"])["surface"]["n"] == 16
+        assert json.loads(h5.attrs["inputs"])["mesh"]["refinement"]["level"] == 2  # 4x
     levels = summary["levels"]
     assert levels["factor"] == [1, 2, 4] and levels["mu_s"][-1] == summary["mu_s"]
     assert levels["reduced_dofs"][0] < levels["reduced_dofs"][1] < levels["reduced_dofs"][2]

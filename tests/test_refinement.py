@@ -1,8 +1,12 @@
 """Richardson error estimates and refined cases on the same bilinear surface."""
 
+from functools import partial
+
 import numpy as np
 import pytest
 from roughfriction.case import FemCase, Loading
+from roughfriction.errors import InputError
+from roughfriction.geometry.adaptive import cells_at_nodes, dilate
 from roughfriction.geometry.mesh import blend_layers_needed, mesh_size
 from roughfriction.geometry.surface import Surface
 from roughfriction.studies.refinement import (
@@ -109,13 +113,16 @@ def power_law_runner(exact=0.2, constant=0.1, order=2.0):
     return run_level, ran, saved, lambda: now[0]
 
 
+#: Limits of a uniform ladder (the power-law runner gives no contact maps).
+UNIFORM = partial(LadderLimits, ladder="uniform")
+
 CASE = FemCase(Surface(np.random.default_rng(1).normal(size=(4, 4)) * 1e-7, 1e-6, "s"),
                Loading(0.155))
 
 
 def test_the_ladder_stops_at_the_first_level_within_the_tolerance():
     run_level, ran, saved, clock = power_law_runner()
-    ladder = run_ladder(CASE, run_level, LadderLimits(tolerance=0.05), lambda case: 1.0, clock)
+    ladder = run_ladder(CASE, run_level, UNIFORM(tolerance=0.05), lambda case: 1.0, clock)
     assert [n for _, n in ran] == [4, 8, 16]  # 1x, 2x, 4x of the same surface
     assert ladder.met and ladder.estimate.observed
     assert ladder.estimate.order == pytest.approx(2.0)
@@ -136,7 +143,7 @@ def test_the_ladder_stops_at_the_first_level_within_the_tolerance():
 
 def test_two_levels_use_the_assumed_order_and_say_so():
     run_level, _, _, _ = power_law_runner(order=1.0)
-    ladder = run_ladder(CASE, run_level, LadderLimits(tolerance=0.3), lambda case: 1.0)
+    ladder = run_ladder(CASE, run_level, UNIFORM(tolerance=0.3), lambda case: 1.0)
     assert len(ladder.levels) == 2 and ladder.met
     assert not ladder.estimate.observed and ladder.estimate.order == ASSUMED_ORDER
     assert ladder.summary()["error_order_observed"] is False
@@ -144,7 +151,7 @@ def test_two_levels_use_the_assumed_order_and_say_so():
 
 def test_without_a_tolerance_the_ladder_runs_to_its_level_the_refine_shortcut():
     run_level, ran, _, _ = power_law_runner()
-    ladder = run_ladder(CASE, run_level, LadderLimits(max_level=1), lambda case: 1.0)
+    ladder = run_ladder(CASE, run_level, UNIFORM(max_level=1), lambda case: 1.0)
     assert len(ran) == 2 and ladder.met and ladder.stopped == ""
 
 
@@ -155,9 +162,9 @@ def dofs_through(level):
 
 
 @pytest.mark.parametrize(("limits", "reason"), [
-    (LadderLimits(tolerance=1e-4, max_level=2), "--max-level 2"),
-    (LadderLimits(tolerance=1e-4, max_memory_gb=5.0), "the 8x level needs about 8 GB"),
-    (LadderLimits(tolerance=1e-4, max_time_s=SECONDS_PER_DOF * (dofs_through(2) + dofs_through(3))
+    (UNIFORM(tolerance=1e-4, max_level=2), "--max-level 2"),
+    (UNIFORM(tolerance=1e-4, max_memory_gb=5.0), "the 8x level needs about 8 GB"),
+    (UNIFORM(tolerance=1e-4, max_time_s=SECONDS_PER_DOF * (dofs_through(2) + dofs_through(3))
                   / 2), "the 8x level would take about"),
 ])
 def test_a_limit_stops_the_ladder_short_of_the_tolerance_with_its_reason(limits, reason):
@@ -171,3 +178,78 @@ def test_a_limit_stops_the_ladder_short_of_the_tolerance_with_its_reason(limits,
     line = ladder.shortfall()
     assert line.startswith("tolerance 0.01 % not met: mu_s = ") and "at 4x" in line
     assert "observed order 2" in line and "\n" not in line
+
+
+# --- the adaptive ladder, with a runner whose contact is a disc of the same physical size -----
+
+CASE8 = FemCase(Surface(np.random.default_rng(2).normal(size=(8, 8)) * 1e-7, 1e-6, "s"),
+                Loading(0.155))
+
+
+def disc_runner(radii):
+    """A runner whose contact on level k is the disc of radius ``radii[k]`` own spacings about
+    the surface's centre, on the level's finest grid; it records the cases it ran."""
+    ran = []
+
+    def run_level(level, level_case):
+        ran.append(level_case)
+        side = CASE8.surface.n << level
+        i, j = np.meshgrid(np.arange(side), np.arange(side), indexing="ij")
+        centre = side / 2
+        contact = (i - centre)**2 + (j - centre)**2 <= (radii[level] * 2**level)**2
+        return LevelRun(0.2 + 0.1 * 0.5**level, 100 * (level + 1), 10, contact=contact)
+    return run_level, ran
+
+
+def test_an_adaptive_level_refines_the_cells_around_the_contact_of_the_level_before():
+    run_level, ran = disc_runner([1.0, 1.0, 1.0])
+    ladder = run_ladder(CASE8, run_level, LadderLimits(max_level=2), lambda case: 1.0)
+    assert [case.surface for case in ran] == [CASE8.surface] * 3  # the own surface every level
+    assert ran[0] is CASE8 and ran[1].mesh.blend_layers == CASE8.mesh.blend_layers
+    first, second = (case.mesh.refinement for case in ran[1:])
+    assert (first.level, first.zone.shape, second.level, second.zone.shape) == (
+        1, (8, 8), 2, (16, 16))
+    # level 0's contact: the 5 nodes within 1 h of the centre node (4, 4); their cells (3..4
+    # and the arms to 2..5), dilated by one cell
+    expected = dilate(cells_at_nodes(disc(8, 4, 1.0)), 1)
+    np.testing.assert_array_equal(first.zone, expected)
+    assert 0 < first.zone.sum() < 64 and second.zone.sum() < 4 * first.zone.sum()
+    assert ladder.summary()["levels"]["zone_escaped"] == [False, False, False]
+    assert ladder.summary()["error_ladder"] == "adaptive"
+
+
+def test_contact_past_the_zone_is_reported_and_widens_the_next_margin():
+    """Level 1's contact (radius 3.5 h) reaches past the zone made from level 0's (1 h, margin
+    1): level 1 is marked, and level 2's zone is level 1's contact dilated by 2 cells."""
+    run_level, ran = disc_runner([1.0, 3.5, 3.5])
+    ladder = run_ladder(CASE8, run_level, LadderLimits(max_level=2), lambda case: 1.0)
+    assert ladder.summary()["levels"]["zone_escaped"] == [False, True, False]
+    np.testing.assert_array_equal(ran[2].mesh.refinement.zone,
+                                  cells_at_nodes(disc(16, 8, 7.0), 2))
+    # the same ladder without the escape keeps a margin of one cell
+    run_level, ran = disc_runner([1.0, 1.0, 1.0])
+    run_ladder(CASE8, run_level, LadderLimits(max_level=2), lambda case: 1.0)
+    np.testing.assert_array_equal(ran[2].mesh.refinement.zone,
+                                  cells_at_nodes(disc(16, 8, 2.0), 1))
+
+
+def test_a_uniform_ladder_never_escapes_and_an_adaptive_one_needs_contact_maps():
+    run_level, ran = disc_runner([1.0, 1.0])
+    ladder = run_ladder(CASE8, run_level, UNIFORM(max_level=1), lambda case: 1.0)
+    assert [case.surface.n for case in ran] == [8, 16] and ran[1].mesh.refinement is None
+    assert ladder.summary()["levels"]["zone_escaped"] == [False, False]
+    power_law, _, _, _ = power_law_runner()
+    with pytest.raises(ValueError, match="contact map"):
+        run_ladder(CASE, power_law, LadderLimits(max_level=1), lambda case: 1.0)
+
+
+@pytest.mark.parametrize("limits", [{"ladder": "octree"}, {"margin": -1}, {"margin": 1.5}])
+def test_bad_ladder_options_are_refused(limits):
+    with pytest.raises(InputError):
+        LadderLimits(**limits)
+
+
+def disc(side, centre, radius):
+    """Nodes of a side x side grid within ``radius`` grid spacings of node (centre, centre)."""
+    i, j = np.meshgrid(np.arange(side), np.arange(side), indexing="ij")
+    return (i - centre)**2 + (j - centre)**2 <= radius**2

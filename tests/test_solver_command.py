@@ -158,8 +158,8 @@ def test_patches_join_across_the_periodic_boundary():
 @pytest.mark.fem
 def test_refine_reports_the_finer_mesh_with_an_error_estimate(tmp_path, capsys):
     output = tmp_path / "run.h5"
-    code = main(["G5", "--n", "8", "--load", "0.155", "--refine", "--json", "--output",
-                 str(output)])
+    code = main(["G5", "--n", "8", "--load", "0.155", "--refine", "--ladder", "uniform", "--json",
+                 "--output", str(output)])
     assert code == 0
     summary = json.loads(capsys.readouterr().out)
     assert summary["converged"] and summary["error_order"] == 1.0

@@ -1,0 +1,79 @@
+"""``fem --tol``/``--refine`` levels: contact-adaptive by default, uniform on request."""
+
+import json
+from types import SimpleNamespace
+
+import h5py
+import pytest
+from roughfriction.errors import InputError
+from roughfriction.scripts.cli import main as cli_main
+from roughfriction.scripts.fem import ladder_limits, run_labels
+
+pytest.importorskip("dolfinx")
+
+
+def main(argv):
+    """``roughfriction fem ARGV``."""
+    return cli_main(["fem", *argv])
+
+
+#: G5's first 8 x 8 window at F* = 0.155: a few patches, levels 1x and 2x.
+WINDOW = ["G5", "--n", "8", "--window", "1", "--load", "0.155", "--json"]
+
+
+@pytest.mark.fem
+def test_the_levels_are_contact_adaptive_by_default(tmp_path, capsys):
+    output = tmp_path / "run.h5"
+    assert main([*WINDOW, "--refine", "--output", str(output)]) == 0
+    summary = json.loads(capsys.readouterr().out)
+    levels = summary["levels"]
+    assert summary["error_ladder"] == "adaptive" and summary["converged"]
+    assert levels["factor"] == [1, 2] and len(levels["zone_escaped"]) == 2
+    assert levels["mu_s"][-1] == summary["mu_s"] and summary["mu_s_error"] > 0
+    with h5py.File(output) as h5:
+        assert json.loads(h5.attrs["summary"]) == summary
+        inputs = json.loads(h5.attrs["inputs"])
+        assert h5["maps/contact_normal"].shape == (16, 16)
+    # the finest level meshes the own 8 x 8 surface refined once in a zone of own cells
+    assert inputs["surface"]["n"] == 8
+    refinement = inputs["mesh"]["refinement"]
+    assert refinement["level"] == 1 and refinement["zone_size"] == 8
+    assert refinement["zone_cells"] > 0
+    with h5py.File(tmp_path / "run_coarse.h5") as h5:
+        assert json.loads(h5.attrs["summary"])["mu_s"] == summary["mu_s_coarse"]
+
+
+@pytest.mark.fem
+def test_a_uniform_ladder_is_an_option_and_is_named_apart(tmp_path, capsys):
+    output = tmp_path / "run.h5"
+    assert main([*WINDOW, "--refine", "--ladder", "uniform", "--output", str(output)]) == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert summary["error_ladder"] == "uniform"
+    assert summary["levels"]["zone_escaped"] == [False, False]
+    with h5py.File(output) as h5:
+        inputs = json.loads(h5.attrs["inputs"])
+    assert inputs["surface"]["n"] == 16 and "refinement" not in inputs["mesh"]
+
+
+def arguments(**given):
+    """The ladder flags of a command line, unset unless given."""
+    names = ("tol", "refine", "ladder", "max_level", "max_memory", "max_time")
+    return SimpleNamespace(**{name: given.get(name) for name in names})
+
+
+def test_the_ladder_option_reaches_the_limits_and_the_results_name():
+    from mpi4py import MPI
+
+    assert ladder_limits(arguments(tol=0.03), MPI.COMM_SELF).ladder == "adaptive"
+    uniform = arguments(tol=0.03, ladder="uniform")
+    assert ladder_limits(uniform, MPI.COMM_SELF).ladder == "uniform"
+    assert run_labels(uniform) == ("tol0.03_L3", "uniform")
+    assert run_labels(arguments(tol=0.03, ladder="adaptive")) == ("tol0.03_L3",)
+    with pytest.raises(InputError, match="--ladder applies to --tol or --refine"):
+        ladder_limits(arguments(ladder="uniform"), MPI.COMM_SELF)
+
+
+def test_an_unknown_ladder_is_a_command_line_error(capsys):
+    with pytest.raises(SystemExit):
+        main([*WINDOW, "--tol", "0.1", "--ladder", "octree"])
+    assert "invalid choice: 'octree'" in capsys.readouterr().err
