@@ -52,7 +52,8 @@ DEFAULT_RUNS = Path("results/runs")
 #: module is classified before it lands.
 PHYSICS_MODULES = (
     "roughfriction.material", "roughfriction.case", "roughfriction.geometry.surface",
-    "roughfriction.geometry.mesh", "roughfriction.solver.block", "roughfriction.solver.contact",
+    "roughfriction.geometry.mesh", "roughfriction.geometry.adaptive",
+    "roughfriction.solver.block", "roughfriction.solver.contact",
     "roughfriction.solver.contact_law", "roughfriction.solver.equilibrium",
     "roughfriction.solver.newton", "roughfriction.solver.reduced_system",
     "roughfriction.solver.linear",
@@ -63,6 +64,10 @@ PHYSICS_MODULES = (
 #: Modules of the solver package that do not change results (field output, progress).
 SOLVER_OUTPUT_MODULES = ("roughfriction.solver", "roughfriction.solver.fields",
                          "roughfriction.solver.progress")
+#: Other modules the physics modules import that do not change results (errors, file
+#: writing); any other import of a physics module must itself be one (a test checks it).
+OUTPUT_IMPORTS = ("roughfriction.errors", "roughfriction.files",
+                  "roughfriction.geometry.mesh_file")
 #: Layout version of an entry: that of the results file, whose writer
 #: (:mod:`studies.results_file`) is not physics.
 ENTRY_FORMAT = FILE_FORMAT

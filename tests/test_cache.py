@@ -88,6 +88,23 @@ def test_every_solver_module_is_declared_physics_or_output():
     assert modules <= declared, f"classify {sorted(modules - declared)} in studies/cache.py"
 
 
+def test_every_module_a_physics_module_imports_is_physics_or_declared_output():
+    import ast
+
+    from roughfriction.studies.cache import OUTPUT_IMPORTS
+
+    imported = set()
+    for source in physics_sources().values():
+        for node in ast.walk(ast.parse(source.read_text())):
+            if isinstance(node, ast.ImportFrom) and (node.module or "").startswith("roughfriction"):
+                imported.add(node.module)
+            elif isinstance(node, ast.Import):
+                imported |= {alias.name for alias in node.names
+                             if alias.name.startswith("roughfriction")}
+    declared = set(PHYSICS_MODULES) | set(SOLVER_OUTPUT_MODULES) | set(OUTPUT_IMPORTS)
+    assert imported <= declared, f"classify {sorted(imported - declared)} in studies/cache.py"
+
+
 def test_physics_version_follows_the_physics_sources(tmp_path):
     sources = physics_sources()
     assert {"roughfriction.solver.equilibrium", "roughfriction.solver.contact",
