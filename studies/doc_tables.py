@@ -70,11 +70,11 @@ def case_label(row: dict[str, str]) -> str:
     return f"{row['surface']}, F* = {float(row['load_star']):g}"
 
 
-def fem_table(bench: Path, smallest_n: int = 0) -> str:
-    """`make bench-fem`: the headline cases at every N (from ``smallest_n`` on) on 2 ranks
+def fem_table(bench: Path, only_n: int | None = None) -> str:
+    """`make bench-fem`: the headline cases at every N (or only at ``only_n``) on 2 ranks
     (fem.csv)."""
     rows = [row for row in read_rows(bench / "fem.csv")
-            if row["ranks"] == "2" and int(row["n"]) >= smallest_n]
+            if row["ranks"] == "2" and only_n in (None, int(row["n"]))]
     rows.sort(key=lambda row: (row["surface"] != "G5", row["surface"], float(row["load_star"]),
                                int(row["n"])))
     return markdown_table(
@@ -278,7 +278,7 @@ PROFILE_PHASES = ("linear solves", "reduced tangent", "residual assembly", "stre
 #: Generated tables by block name.
 TABLES: dict[str, Callable[[Path], str]] = {
     "fem.csv": fem_table,
-    "fem.csv 128": partial(fem_table, smallest_n=128),
+    "fem.csv 128": partial(fem_table, only_n=128),
     "fem.csv ranks": fem_ranks_table,
     "path.csv": path_table,
     "figures_n128.csv": figures_table,
