@@ -16,7 +16,7 @@ names are attributes of this package too, imported on first use, so that ``impor
 stays cheap and the core imports no upper layer when it is imported.
 """
 
-__version__ = "0.20.0"
+from roughfriction.version import __version__  # noqa: F401  (re-exported)
 
 #: Names of :mod:`roughfriction.studies.api` offered as ``roughfriction.<name>``.
 API_NAMES = (

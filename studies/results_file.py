@@ -28,13 +28,14 @@ def package_versions() -> dict:
     import gmsh
     import h5py
     import petsc4py
-    import roughfriction
     import scipy
     import ufl
+    from roughfriction.version import __version__
 
-    modules = {"roughfriction": roughfriction, "dolfinx": dolfinx, "ufl": ufl,
-               "petsc4py": petsc4py, "gmsh": gmsh, "numpy": np, "scipy": scipy, "h5py": h5py}
-    return {name: module.__version__ for name, module in modules.items()}
+    modules = {"dolfinx": dolfinx, "ufl": ufl, "petsc4py": petsc4py, "gmsh": gmsh, "numpy": np,
+               "scipy": scipy, "h5py": h5py}
+    return {"roughfriction": __version__} | {name: module.__version__
+                                              for name, module in modules.items()}
 
 
 def git_revision() -> str:
