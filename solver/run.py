@@ -20,7 +20,6 @@ from roughfriction.geometry.adaptive import (
     CellSizes,
     layout_dofs,
     overlapped_nodes,
-    refinement_after,
 )
 from roughfriction.geometry.adaptive import estimated_memory_gb as adaptive_memory_gb
 from roughfriction.geometry.mesh import Block, blend_layers_needed, estimated_memory_gb, mesh_size
@@ -119,16 +118,6 @@ def contact_candidates(case: FemCase, fem_run: FemRun) -> np.ndarray:
     overlapped = overlapped_nodes(case.surface.heights, refinement.level if refinement else 0,
                                   lowest)
     return contact_nodes(fem_run.maps) | overlapped
-
-
-def next_level_case(case: FemCase, fem_run: FemRun, margin: int = 1) -> FemCase:
-    """The case one contact-adaptive level finer than ``fem_run``'s (the run of ``case``):
-    refinement level L + 1 (L = 0 on the structured block) over the cells of the run's finest
-    grid (h / 2^L) at its contact candidates (:func:`contact_candidates`: in contact at the end
-    of the preload or at inception, or overlapped by the rigid flat), dilated by ``margin`` of
-    those cells for the junction growth (``geometry.adaptive.refinement_after``)."""
-    zone = refinement_after(case.mesh.refinement, contact_candidates(case, fem_run), margin)
-    return replace(case, mesh=replace(case.mesh, refinement=zone))
 
 
 def stderr_progress(comm):

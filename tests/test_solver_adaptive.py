@@ -14,7 +14,8 @@ from roughfriction.studies.refinement import refined_case
 pytest.importorskip("dolfinx")
 from mpi4py import MPI  # noqa: E402
 from roughfriction.solver.block import build_block, mesh_nodes  # noqa: E402
-from roughfriction.solver.run import FemRun, next_level_case, run  # noqa: E402
+from roughfriction.solver.run import FemRun, contact_candidates, run  # noqa: E402
+from roughfriction.studies.refinement import adaptive_level_case  # noqa: E402
 
 SPACING = 1e-6  # [m]
 LEVEL = 1
@@ -106,13 +107,18 @@ def partial_zone_case() -> FemCase:
         1, cells_at_nodes(contact, 1))))
 
 
+def next_level(case: FemCase, fem_run: FemRun) -> FemCase:
+    """The adaptive level after ``case`` around ``fem_run``'s contact candidates, no margin."""
+    return adaptive_level_case(case, contact_candidates(case, fem_run), margin=0)
+
+
 def test_the_next_level_refines_the_cells_around_the_last_level_s_contact():
     case = partial_zone_case()
     maps = {"contact_normal": np.zeros((16, 16), bool), "contact_sliding": np.zeros((16, 16), bool)}
     maps["contact_normal"][4, 6] = True
     maps["contact_sliding"][5, 6] = True
     above = SimpleNamespace(records=[SimpleNamespace(flat_height=SPACING)])  # over every peak
-    finer = next_level_case(case, FemRun(above, maps, None, None), margin=0)
+    finer = next_level(case, FemRun(above, maps, None, None))
     assert finer.mesh.refinement.level == 2
     zone = finer.mesh.refinement.zone
     assert zone.shape == (16, 16) and zone.sum() == 6 and zone[3:6, 5:7].all()
@@ -122,7 +128,7 @@ def test_the_next_level_refines_the_cells_around_the_last_level_s_contact():
     peak = np.unravel_index(np.argmax(fine), fine.shape)
     low = SimpleNamespace(records=[above.records[0], SimpleNamespace(flat_height=fine[peak])])
     at_peak = cells_at_nodes(fine >= fine[peak])
-    zone = next_level_case(case, FemRun(low, maps, None, None), margin=0).mesh.refinement.zone
+    zone = next_level(case, FemRun(low, maps, None, None)).mesh.refinement.zone
     assert at_peak.sum() == 4 and not (at_peak & finer.mesh.refinement.zone).any()
     np.testing.assert_array_equal(zone, at_peak | finer.mesh.refinement.zone)
 
@@ -161,9 +167,9 @@ def test_an_adaptive_level_gives_the_uniform_level_s_mu_s():
     mesh; the same level around the contact alone (a patch appears at 2x where the flat
     overlapped the surface at 1x) and with no zone at all both miss it."""
     from roughfriction.geometry.adaptive import refinement_after
-    from roughfriction.solver.run import contact_candidates, contact_nodes
+    from roughfriction.solver.run import contact_nodes
     from roughfriction.studies.paper import fem_surface
-    from roughfriction.studies.refinement import adaptive_level_case, level_case
+    from roughfriction.studies.refinement import level_case
 
     case = FemCase(fem_surface("G5", 8, 3), Loading(0.155))
     base = run(case, MPI.COMM_SELF, progress=lambda record: None)
