@@ -93,29 +93,42 @@ def fem_runs(module, n: int | None = None, runs_directory=None) -> list | None:
     return [read_run(path) for path in paths] if comm.rank == 0 else None
 
 
+def sliding_key(case, physics: str) -> str:
+    """The run-cache key of ``case`` as a sliding run (a normal-only case is answered by it)."""
+    from dataclasses import replace
+
+    from roughfriction.case import Loading
+    from roughfriction.studies.cache import run_key
+
+    return run_key(replace(case, loading=Loading(case.loading.load_star)), physics)
+
+
+def needed_cases(cases, sliding: set[str], physics: str) -> list:
+    """``cases`` without the normal-only ones whose sliding run (:func:`sliding_key`) is among
+    the ``sliding`` keys."""
+    return [case for case in cases
+            if not (case.loading.normal_only and sliding_key(case, physics) in sliding)]
+
+
+def sliding_keys(cases, physics: str) -> set[str]:
+    """The :func:`sliding_key` of every sliding case of ``cases``."""
+    return {sliding_key(case, physics) for case in cases if not case.loading.normal_only}
+
+
 def compute_fem_runs(n: int | None = None, runs_directory=None) -> int:
     """Compute, in one batch, every FEM run that the FEM figures declare: the loads of one
     surface then share one normal loading path (figure by figure they would each repeat it).
     A normal-only case whose sliding run is also declared is answered by that run. Call on
     every rank; returns the number of cases declared."""
-    from dataclasses import replace
-
     from mpi4py import MPI
-    from roughfriction.case import Loading
-    from roughfriction.studies.cache import cached_results, physics_version, run_key
+    from roughfriction.studies.cache import cached_results, physics_version
     from roughfriction.studies.paper import fem_resolution
 
     cases = [case for name in FEM_FIGURES
              for case in figure_module(name).fem_cases(fem_resolution(n))]
     physics = physics_version()
-
-    def sliding_key(case):
-        return run_key(replace(case, loading=Loading(case.loading.load_star)), physics)
-
-    sliding = {sliding_key(case) for case in cases if not case.loading.normal_only}
-    needed = [case for case in cases
-              if not (case.loading.normal_only and sliding_key(case) in sliding)]
-    cached_results(needed, MPI.COMM_WORLD, directory=runs_directory)
+    cached_results(needed_cases(cases, sliding_keys(cases, physics), physics), MPI.COMM_WORLD,
+                   directory=runs_directory)
     return len(cases)
 
 

@@ -14,7 +14,7 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from roughfriction.scripts.figures import FEM_FIGURES, figure_module
+from roughfriction.scripts.figures import FEM_FIGURES, figure_module, needed_cases, sliding_keys
 
 #: Columns of the table.
 COLUMNS = ("figure", "shows", "surfaces", "loads", "loading", "meshes", "runs", "new_runs")
@@ -43,24 +43,17 @@ def shows(module) -> str:
 
 def scene_rows(n: int | None = None) -> list[dict]:
     """A row per FEM figure (:data:`COLUMNS`), in the order the figures are made."""
-    from dataclasses import replace
-
-    from roughfriction.case import Loading
     from roughfriction.studies.cache import physics_version, run_key
     from roughfriction.studies.paper import fem_resolution
 
     n = fem_resolution(n)
     physics = physics_version()
     declared = {name: figure_module(name).fem_cases(n) for name in FEM_FIGURES}
-    sliding = {run_key(replace(case, loading=Loading(case.loading.load_star)), physics)
-               for cases in declared.values() for case in cases
-               if not case.loading.normal_only}
+    sliding = sliding_keys([case for cases in declared.values() for case in cases], physics)
     seen: set[str] = set()
     rows = []
     for name, cases in declared.items():
-        keys = {run_key(case, physics) for case in cases
-                if not (case.loading.normal_only and run_key(
-                    replace(case, loading=Loading(case.loading.load_star)), physics) in sliding)}
+        keys = {run_key(case, physics) for case in needed_cases(cases, sliding, physics)}
         normal_only = {case.loading.normal_only for case in cases}
         rows.append({
             "figure": name,
