@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import ctypes
 import functools
+from dataclasses import dataclass
 
 import numpy as np
 from dolfinx.fem import petsc as fem_petsc
@@ -49,6 +50,16 @@ def free_product_data(matrix: PETSc.Mat) -> None:
         raise RuntimeError("MatProductClear failed")
 
 
+@dataclass
+class TangentAdditions:
+    """What the tangent holds beyond P^T K_elastic P, to be taken back at the next assembly:
+    the reduced plastic correction's rows (row pointer, columns, values [N/m], global rows) and
+    the contact's node blocks (nodes, 3 x 3 blocks [N/m]); None where nothing was added."""
+
+    plastic: tuple | None = None
+    node_blocks: tuple | None = None
+
+
 class ReducedSystem:
     """R, b, c and K of the reduced system, assembled at an iterate, and its bordered solve.
 
@@ -82,10 +93,10 @@ class ReducedSystem:
         self.solid, self.reduction, self.flat = solid, reduction, flat
         self.comm = solid.V.mesh.comm
         self._residual_full = fem_petsc.create_vector(solid.residual_forms[0])
-        self._elastic_system = None  # P^T K_elastic P in the system's pattern, at first assembly
         self._tangent_full = None  # K_elastic + K_plastic on the whole mesh, once needed
         self._solid_tangent = None  # its P^T K P
         self.tangent = None  # P^T K P + contact, created at the first assembly
+        self._additions = None  # what the tangent holds beyond P^T K_elastic P (None: unknown)
         self._uncoupled_tangent = None  # the tangent without dt/dp, once it is not symmetric
         self.symmetric = True
         self.coupled = False
@@ -157,23 +168,26 @@ class ReducedSystem:
         ``contact`` response is passed).
 
         The reduced elastic part is built once, in a matrix with the contact's pattern as well
-        (:meth:`_system_matrix`), and copied at each assembly. The plastic correction is
-        assembled and reduced on the couplings of the yielding cells alone and added row by
-        row while few cells yield (``WHOLE_MESH_YIELDING``), else in the whole mesh's pattern
-        (kept, with its P^T K P, and reused). The blocks of the nodes that touch are added row
-        by row.
+        (:meth:`_system_matrix`), which then holds the tangent: each assembly takes back what
+        the last one added to it (:class:`TangentAdditions`) and adds the new terms, so no
+        second matrix of the system's size is kept. The plastic correction is assembled and
+        reduced on the couplings of the yielding cells alone and added row by row while few
+        cells yield (``WHOLE_MESH_YIELDING``), else in the whole mesh's pattern (kept, with its
+        P^T K P, and reused). The blocks of the nodes that touch are added row by row.
         """
         if self.tangent is None:
             self._create_tangent()
         plastic = self.solid.plastic_tangent_form()
         if plastic is not None and self.solid.yielding_fraction() > WHOLE_MESH_YIELDING:
             self._reduce_whole_mesh(plastic)
+            self._additions = None
         else:
-            self._elastic_system.copy(self.tangent,
-                                      structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
+            self._restore_elastic_part()
             if plastic is not None:
-                self._add_plastic_correction(plastic)
+                self._additions.plastic = self._add_plastic_correction(plastic)
         self._add_node_blocks(self.tangent, *contact.node_blocks)
+        if self._additions is not None:
+            self._additions.node_blocks = contact.node_blocks
         self.tangent.assemble()
         self.symmetric = self.comm.allreduce(contact.symmetric, op=MPI.LAND)
         self.coupled = self.comm.allreduce(contact.coupled, op=MPI.LOR)
@@ -181,18 +195,31 @@ class ReducedSystem:
             self._assemble_uncoupled_tangent(contact)
 
     def _create_tangent(self) -> None:
-        """The reduced elastic part in the system's pattern, and the tangent matrix (the
+        """The tangent matrix, holding the reduced elastic part in the system's pattern (the
         full-mesh elastic tangent is freed as soon as it is reduced)."""
         full = self._assemble_full(self.solid.elastic_tangent_forms)
         full.assemble()
         elastic = self.reduction.reduce_matrix(full)
         free_product_data(elastic)  # else PETSc keeps the full matrix alive with it
         full.destroy()
-        self._elastic_system = self._system_matrix(elastic)
+        self.tangent = self._system_matrix(elastic)
         elastic.destroy()
-        self.tangent = self._elastic_system.duplicate(copy=False)
+        self._additions = TangentAdditions()
         if self._near_nullspace is not None:
             self.tangent.setNearNullSpace(self._near_nullspace)
+
+    def _restore_elastic_part(self) -> None:
+        """Bring the tangent back to P^T K_elastic P: subtract the last additions, or after a
+        whole-mesh tangent, reduce the elastic part again in the whole mesh's kept pattern."""
+        if self._additions is not None:
+            if self._additions.plastic is not None:
+                self._add_rows(*self._additions.plastic, scale=-1.0)
+            if self._additions.node_blocks is not None:
+                self._add_node_blocks(self.tangent, *self._additions.node_blocks, scale=-1.0)
+            self.tangent.assemble()
+        else:
+            self._reduce_whole_mesh(None)
+        self._additions = TangentAdditions()
 
     def _add_node_blocks(self, matrix: PETSc.Mat, nodes: np.ndarray, blocks: np.ndarray,
                          scale: float = 1.0) -> None:
@@ -222,33 +249,43 @@ class ReducedSystem:
         self._add_node_blocks(self._uncoupled_tangent, *contact.coupling_blocks, scale=-1.0)
         self._uncoupled_tangent.assemble()
 
-    def _add_plastic_correction(self, plastic) -> None:
+    def _add_plastic_correction(self, plastic) -> tuple:
         """Add P^T K_plastic P to the tangent, assembled and reduced on the couplings of the
-        yielding cells (the ``plastic`` form's cells) alone, row by row."""
+        yielding cells (the ``plastic`` form's cells) alone, row by row; return its rows as
+        :meth:`_add_rows` takes them."""
         correction = fem_petsc.assemble_matrix(plastic)
         correction.assemble()
         reduced = self.reduction.reduce_matrix(correction)
         row_pointer, columns, values = reduced.getValuesCSR()
         rows = np.flatnonzero(np.diff(row_pointer))
-        if len(rows):  # (petsc4py divides by the number of values)
-            self.tangent.setValuesIJV(
-                np.append(row_pointer[rows], row_pointer[-1]), columns, values,
-                addv=PETSc.InsertMode.ADD_VALUES,
-                rowmap=(rows + reduced.getOwnershipRange()[0]).astype(PETSc.IntType))
+        added = (np.append(row_pointer[rows], row_pointer[-1]), columns, values,
+                 (rows + reduced.getOwnershipRange()[0]).astype(PETSc.IntType))
         correction.destroy()
         reduced.destroy()
+        self._add_rows(*added)
+        return added
+
+    def _add_rows(self, row_pointer: np.ndarray, columns: np.ndarray, values: np.ndarray,
+                  rows: np.ndarray, scale: float = 1.0) -> None:
+        """Add ``scale`` times the compressed ``rows`` (global reduced rows with their row
+        pointer, columns and values) to the tangent."""
+        if len(rows):  # (petsc4py divides by the number of values)
+            self.tangent.setValuesIJV(row_pointer, columns, scale * values,
+                                      addv=PETSc.InsertMode.ADD_VALUES, rowmap=rows)
 
     def _reduce_whole_mesh(self, plastic) -> None:
-        """Set the tangent to P^T (K_elastic + K_plastic) P, assembled and reduced on the whole
-        mesh (the full matrix and its P^T K P kept, their patterns reused; the elastic part is
-        assembled again each time rather than kept in a second full-mesh matrix)."""
+        """Set the tangent to P^T (K_elastic + K_plastic) P (``plastic`` None: the elastic
+        part alone), assembled and reduced on the whole mesh (the full matrix and its P^T K P
+        kept, their patterns reused; the elastic part is assembled again each time rather than
+        kept in a second full-mesh matrix)."""
         if self._tangent_full is None:
             self._tangent_full = self._assemble_full(self.solid.elastic_tangent_forms)
         else:
             self._tangent_full.zeroEntries()
             for form in self.solid.elastic_tangent_forms:
                 fem_petsc.assemble_matrix(self._tangent_full, form)
-        fem_petsc.assemble_matrix(self._tangent_full, plastic)
+        if plastic is not None:
+            fem_petsc.assemble_matrix(self._tangent_full, plastic)
         self._tangent_full.assemble()
         self._solid_tangent = self.reduction.reduce_matrix(self._tangent_full,
                                                            self._solid_tangent)
@@ -346,7 +383,7 @@ class ReducedSystem:
 
     def destroy(self) -> None:
         """Free the PETSc objects (matrices, vectors, the KSP); unusable afterwards."""
-        for item in (self._elastic_system, self._tangent_full, self._solid_tangent,
+        for item in (self._tangent_full, self._solid_tangent,
                      self._residual_full, self.tangent,
                      self._uncoupled_tangent, self.residual, self.height_column, self.force_row,
                      self.x1, self.x2, self._near_nullspace):

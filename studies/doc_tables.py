@@ -262,14 +262,15 @@ def calibration_table(bench: Path) -> str:
 
 
 def memory_table(bench: Path) -> str:
-    """`roughfriction bench profile` memory: kB per reduced dof by object and in total, before
-    and after the memory cuts (memory.csv)."""
+    """`roughfriction bench profile` memory: kB per reduced dof by object and in total, one
+    column per version measured (memory.csv), oldest first."""
     rows = [row for row in read_rows(bench / "memory.csv") if row["kind"] in ("object", "total")]
     per_dof = {(row["version"], row["item"]): row["kb_per_dof"] for row in rows}
+    versions = list(dict.fromkeys(row["version"] for row in rows))
     items = list(dict.fromkeys(row["item"] for row in rows))
-    table = [[item, per_dof.get(("before", item), "–") or "–",
-              per_dof.get(("after", item), "–") or "–"] for item in items]
-    return markdown_table(["object", "kB per dof (before)", "kB per dof (today)"], table)
+    table = [[item] + [per_dof.get((version, item), "–") or "–" for version in versions]
+             for item in items]
+    return markdown_table(["object"] + [f"kB per dof ({version})" for version in versions], table)
 
 
 PROFILE_PHASES = ("linear solves", "reduced tangent", "residual assembly", "stress update",

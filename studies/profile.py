@@ -226,7 +226,6 @@ def memory_objects(equilibrium) -> dict:
 #: (name in the breakdown, attribute of ReducedSystem) of the matrices it may hold.
 MATRICES = (
     ("full tangent K", "_tangent_full"),
-    ("reduced elastic PtKP", "_elastic_system"),
     ("reduced solid PtKP", "_solid_tangent"),
     ("reduced tangent", "tangent"),
     ("reduced uncoupled tangent", "_uncoupled_tangent"),

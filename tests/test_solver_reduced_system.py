@@ -49,16 +49,25 @@ def test_the_bordered_newton_direction_meets_its_krylov_tolerance(monkeypatch):
     assert max(ratios) <= 2.0, f"linear residual {max(ratios):.3g} x the forcing term"
 
 
-@pytest.mark.parametrize("whole_mesh_yielding", [1.0, 0.0])
-def test_the_tangent_is_the_reduced_solid_tangent_plus_the_contact_blocks(monkeypatch,
-                                                                         whole_mesh_yielding):
+@pytest.mark.parametrize("mode", ["yielding cells", "whole mesh", "alternating"])
+def test_the_tangent_is_the_reduced_solid_tangent_plus_the_contact_blocks(monkeypatch, mode):
     """At every Newton iteration of a random 16 x 16 surface's preload and sliding (yielding
-    cells and touching nodes from the first steps on), the system matrix built from the reduced
-    elastic part, the plastic correction reduced on its own cells (or, with any cell yielding,
-    the whole tangent reduced on the whole mesh) and the blocks of the touching nodes equals
-    P^T (K_elastic + K_plastic) P plus the blocks of every surface node, assembled on the full
-    mesh, to round-off."""
-    monkeypatch.setattr(reduced_system_module, "WHOLE_MESH_YIELDING", whole_mesh_yielding)
+    cells and touching nodes from the first steps on), the system matrix, updated in place from
+    the reduced elastic part with the plastic correction reduced on its own cells (or the whole
+    tangent reduced on the whole mesh, or the two alternating from one assembly to the next) and
+    the blocks of the touching nodes, equals P^T (K_elastic + K_plastic) P plus the blocks of
+    every surface node, assembled on the full mesh, to round-off."""
+    class Alternating:
+        """A threshold that every yielding fraction exceeds at every other comparison."""
+
+        calls = 0
+
+        def __lt__(self, fraction):
+            self.calls += 1
+            return self.calls % 2 == 0
+
+    threshold = {"yielding cells": 1.0, "whole mesh": 0.0, "alternating": Alternating()}[mode]
+    monkeypatch.setattr(reduced_system_module, "WHOLE_MESH_YIELDING", threshold)
     from dolfinx.fem import petsc as fem_petsc
 
     assemble_tangent = ReducedSystem.assemble_tangent
