@@ -295,7 +295,13 @@ def surface_levels(n: int, level: int, zone: np.ndarray) -> np.ndarray:
 
 def zone_escaped(levels: np.ndarray, level: int, contact: np.ndarray) -> bool:
     """Whether contact reached the edge of the refined zone: a surface cell coarser than
-    ``level`` (2:1 transition or own grid) has a node in ``contact`` as a corner.
+    ``level`` (2:1 transition or own grid) has a node in ``contact`` as a corner
+    (:func:`uncovered_nodes`)."""
+    return bool(np.any(uncovered_nodes(levels, level, contact)))
+
+
+def uncovered_nodes(levels: np.ndarray, level: int, contact: np.ndarray) -> np.ndarray:
+    """The nodes in ``contact`` that are a corner of a surface cell coarser than ``level``.
 
     Parameters
     ----------
@@ -306,8 +312,16 @@ def zone_escaped(levels: np.ndarray, level: int, contact: np.ndarray) -> bool:
     contact : numpy.ndarray
         Nodes in contact on the finest grid, bool, shape (N, N) (a coarse face's interior grid
         points are never in contact: its corners are).
+
+    Returns
+    -------
+    numpy.ndarray
+        bool, shape (N, N).
     """
-    return bool(np.any(cells_at_nodes(contact) & (np.asarray(levels) < level)))
+    coarse = np.asarray(levels) < level  # node (i, j) is a corner of cells (i - 1 .. i, j - 1 .. j)
+    around = coarse | np.roll(coarse, 1, axis=0) | np.roll(coarse, 1, axis=1)
+    around |= np.roll(coarse, (1, 1), axis=(0, 1))
+    return np.asarray(contact, dtype=bool) & around
 
 
 def overlapped_nodes(heights: np.ndarray, level: int, flat_height: float) -> np.ndarray:

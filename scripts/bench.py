@@ -95,7 +95,18 @@ def add_bench_commands(bench) -> None:
     profile.add_argument("--n", type=int, default=DEFAULT_FEM_N,
                          help=f"surface cells per side (default {DEFAULT_FEM_N})")
     profile.set_defaults(run=cmd_bench_profile)
-    for parser in (multiscale, fem, path, error, matrix, profile):
+
+    zone = kinds.add_parser("zone", help="how well zones built from a run's contact hold the "
+                            "contact of a run on a mesh twice as fine -> "
+                            f"{BENCH_DIR / 'zone_cover.csv'}")
+    zone.add_argument("runs", nargs="+", metavar="RUN.h5",
+                      help="pairs of results files: a run, then the same case on the 2x mesh")
+    zone.add_argument("--margins", type=int, nargs="+", metavar="M", default=None,
+                      help="zone margins in cells of the coarse grid (default 0-5)")
+    zone.add_argument("--output", metavar="CSV", default=str(BENCH_DIR / "zone_cover.csv"),
+                      help="the table (default %(default)s)")
+    zone.set_defaults(run=cmd_bench_zone)
+    for parser in (multiscale, fem, path, error, matrix, profile, zone):
         parser.add_argument("--json", action="store_true", help="one JSON object on stdout")
 
 
@@ -137,6 +148,24 @@ def cmd_bench_profile(args) -> dict:
         record[f"{kind} solves / its / largest"] = (
             f"{row['solves']} / {row['krylov_iterations']} / {row['largest']}")
     return record | {"json": str(path)}
+
+
+def cmd_bench_zone(args) -> dict:
+    """Zone coverage rows (:mod:`roughfriction.studies.zone_cover`) of each pair of runs."""
+    from roughfriction.studies.post import read_run
+    from roughfriction.studies.zone_cover import MARGINS, coverage_rows, write_rows
+
+    if len(args.runs) % 2:
+        raise InputError(f"bench zone takes pairs of runs (coarse, then 2x); got {len(args.runs)} "
+                         "files")
+    margins = MARGINS if args.margins is None else args.margins
+    if any(margin < 0 for margin in margins):
+        raise InputError(f"zone margins are cells >= 0, got {margins}")
+    rows = []
+    for coarse, fine in zip(args.runs[::2], args.runs[1::2], strict=True):
+        rows += coverage_rows(read_run(coarse), read_run(fine), margins)
+    path = write_rows(rows, Path(args.output))
+    return {"csv": str(path), "coverage": {key: [row[key] for row in rows] for key in rows[0]}}
 
 
 def cmd_bench_error(args) -> dict:

@@ -261,6 +261,22 @@ def calibration_table(bench: Path) -> str:
                           table)
 
 
+def zone_cover_table(bench: Path) -> str:
+    """`roughfriction bench zone`: per case and zone rule, the 2x run's contact nodes a zone of
+    each margin leaves uncovered, and the zone's share of the cells (zone_cover.csv)."""
+    rows = read_rows(bench / "zone_cover.csv")
+    margins = list(dict.fromkeys(row["margin"] for row in rows))
+    groups: dict[tuple[str, str], dict[str, dict]] = {}
+    for row in rows:
+        groups.setdefault((row["case"], row["rule"]), {})[row["margin"]] = row
+    table = [[case, rule, cells[margins[0]]["fine_contact_nodes"]]
+             + [f"{cells[m]['uncovered']} ({100 * float(cells[m]['zone_share']):.0f} %)"
+                if m in cells else "–" for m in margins]
+             for (case, rule), cells in groups.items()]
+    return markdown_table(["case", "zone from", "2x contact nodes"]
+                          + [f"margin {m}" for m in margins], table)
+
+
 def memory_table(bench: Path) -> str:
     """`roughfriction bench profile` memory: kB per reduced dof by object and in total, one
     column per version measured (memory.csv), oldest first."""
@@ -289,6 +305,7 @@ TABLES: dict[str, Callable[[Path], str]] = {
     "figure_scenes.csv": scenes_table,
     "calibration.csv": calibration_table,
     "memory.csv": memory_table,
+    "zone_cover.csv": zone_cover_table,
     "profile_*.json": profile_table,
 }
 

@@ -16,6 +16,7 @@ from roughfriction.geometry.adaptive import (
     overlapped_nodes,
     reduced_dofs,
     surface_levels,
+    uncovered_nodes,
     zone_escaped,
 )
 from roughfriction.geometry.mesh import (
@@ -411,3 +412,14 @@ def test_the_flat_overlaps_the_bilinear_surface_at_and_above_its_height():
     assert overlapped_nodes(heights, 2, fine.min()).all()
     assert not overlapped_nodes(heights, 0, top + 1e-12).any()
     assert overlapped_nodes(heights, 0, 0.0).sum() == (heights > heights.mean()).sum()
+
+
+def test_uncovered_nodes_are_the_contact_nodes_at_a_cell_outside_the_zone():
+    """The four nodes of the parametrised case above at once: the two outside are counted."""
+    zone = np.zeros((8, 8), bool)
+    zone[2:5, 2:5] = True
+    contact = np.zeros((16, 16), bool)
+    for node in ((6, 6), (9, 6), (10, 6), (4, 4)):
+        contact[node] = True
+    uncovered = uncovered_nodes(surface_levels(8, 1, zone), 1, contact)
+    assert set(zip(*np.nonzero(uncovered), strict=True)) == {(10, 6), (4, 4)}

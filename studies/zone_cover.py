@@ -1,0 +1,86 @@
+"""How well a refinement zone built from one mesh's contact holds the contact of a mesh twice as
+fine: the evidence behind the adaptive ladder's zone rule (``solver.run.contact_candidates``,
+``studies.refinement.adaptive_level_case``).
+
+From a coarse run and a run on a mesh twice as fine (uniform, the same bilinear surface), the
+zone is the coarse grid's cells at the coarse run's contact nodes (at the preload or at
+inception), optionally with the nodes the rigid flat overlaps on the undeformed surface at its
+lowest position, dilated by a margin of cells (``geometry.adaptive.cells_at_nodes``). A fine
+contact node is *uncovered* when a surface cell around it would stay coarse
+(``geometry.adaptive.uncovered_nodes``): refining that zone alone would have missed it.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+from roughfriction.errors import InputError
+from roughfriction.files import atomic_write
+from roughfriction.geometry.adaptive import (
+    cells_at_nodes,
+    overlapped_nodes,
+    surface_levels,
+    uncovered_nodes,
+)
+from roughfriction.studies.bench_fem import write_csv
+
+#: Margins [cells of the coarse grid] tried by default.
+MARGINS = (0, 1, 2, 3, 4, 5)
+#: Zone rules: name -> whether the flat's overlap of the undeformed surface joins the contact.
+RULES = {"contact": False, "contact + overlap": True}
+#: Columns of the coverage table.
+FIELDS = ("case", "rule", "margin", "zone_share", "uncovered", "fine_contact_nodes")
+
+
+def contact_of(run) -> np.ndarray:
+    """Nodes of a run in contact at the end of the preload or at inception, bool (N, N)."""
+    contact = np.asarray(run.maps["contact_normal"], dtype=bool)
+    if "contact_sliding" in run.maps:
+        contact = contact | np.asarray(run.maps["contact_sliding"], dtype=bool)
+    return contact
+
+
+def coverage_rows(coarse, fine, margins=MARGINS) -> list[dict]:
+    """One row per zone rule and margin: the zone's share of the coarse cells [-] and the fine
+    run's contact nodes it leaves uncovered [-].
+
+    Parameters
+    ----------
+    coarse, fine : studies.post.RunFile
+        Runs of one case on an N x N grid and on the 2N x 2N grid of the same surface, each
+        with its ``surface_heights`` map.
+    margins : sequence of int
+        Margins [coarse cells].
+    """
+    heights = np.asarray(coarse.maps.get("surface_heights"), dtype=float)
+    fine_contact = contact_of(fine)
+    n = heights.shape[0] if heights.ndim == 2 else 0
+    if n == 0 or fine_contact.shape != (2 * n, 2 * n):
+        raise InputError(f"the fine run's grid must be twice the coarse run's: "
+                         f"{fine_contact.shape} against {heights.shape}")
+    fine_heights = np.asarray(fine.maps["surface_heights"], dtype=float)
+    if not np.allclose(fine_heights[::2, ::2] - fine_heights.mean(), heights - heights.mean(),
+                       rtol=0.0, atol=1e-9 * np.ptp(heights)):
+        raise InputError("the two runs do not mesh the same surface")
+    lowest = float(np.min(coarse.steps["flat_height"]))
+    candidates = {rule: contact_of(coarse) | (overlapped_nodes(heights, 0, lowest) if overlap
+                                              else False)
+                  for rule, overlap in RULES.items()}
+    case = f"{coarse.inputs['surface']['name']} F*={coarse.inputs['loading']['load_star']:g}"
+    rows = []
+    for rule, nodes in candidates.items():
+        for margin in margins:
+            zone = cells_at_nodes(nodes, margin)
+            uncovered = uncovered_nodes(surface_levels(n, 1, zone), 1, fine_contact)
+            rows.append({"case": f"{case}, {n}² -> {2 * n}²", "rule": rule, "margin": margin,
+                         "zone_share": float(zone.mean()),
+                         "uncovered": int(np.count_nonzero(uncovered)),
+                         "fine_contact_nodes": int(np.count_nonzero(fine_contact))})
+    return rows
+
+
+def write_rows(rows: list[dict], path: Path) -> Path:
+    """Write the coverage rows as CSV, whole or not at all (``core.files.atomic_write``)."""
+    atomic_write(path, lambda temporary: write_csv(rows, temporary, FIELDS))
+    return Path(path)

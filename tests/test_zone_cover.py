@@ -1,0 +1,77 @@
+"""studies.zone_cover: how well a zone built from a run's contact holds a 2x run's contact."""
+
+import csv
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+from roughfriction.errors import InputError
+from roughfriction.geometry.surface import bilinear_refine
+from roughfriction.scripts.cli import main
+from roughfriction.studies.zone_cover import coverage_rows, write_rows
+
+
+def _runs(far_contact: bool, overlap_there: bool):
+    """A coarse 8 x 8 run touching at node (2, 2) and its 2x run, which touches the same
+    point and, with ``far_contact``, node (12, 12) (coarse node (6, 6), whose cells 5..6 are
+    three cells from the contact's cells 1..2 across the periodic boundary); with
+    ``overlap_there`` the coarse surface peaks at (6, 6) above the flat's lowest position."""
+    heights = np.zeros((8, 8))
+    heights[2, 2] = 2e-7
+    heights[6, 6] = 2e-7 if overlap_there else 0.0
+    contact = np.zeros((8, 8), bool)
+    contact[2, 2] = True
+    fine_contact = np.zeros((16, 16), bool)
+    fine_contact[4, 4] = True
+    fine_contact[12, 12] = far_contact
+    inputs = {"surface": {"name": "test"}, "loading": {"load_star": 0.155}}
+    coarse = SimpleNamespace(maps={"contact_normal": contact, "surface_heights": heights},
+                             steps={"flat_height": np.array([2e-7, 1e-7])}, inputs=inputs)
+    fine = SimpleNamespace(maps={"contact_normal": fine_contact,
+                                 "surface_heights": bilinear_refine(heights, 2)},
+                           steps={}, inputs=inputs)
+    return coarse, fine
+
+
+def _uncovered(rows, rule, margin):
+    return next(row["uncovered"] for row in rows if row["rule"] == rule
+                and row["margin"] == margin)
+
+
+def test_a_contact_far_from_the_coarse_contact_is_uncovered_until_the_margin_reaches_it():
+    rows = coverage_rows(*_runs(far_contact=True, overlap_there=False))
+    assert [_uncovered(rows, "contact", margin) for margin in range(6)] == [1, 1, 1, 0, 0, 0]
+    assert all(row["fine_contact_nodes"] == 2 for row in rows)
+    share = {row["margin"]: row["zone_share"] for row in rows if row["rule"] == "contact"}
+    assert share[0] == 4 / 64 and share[1] == 16 / 64
+
+
+def test_the_flats_overlap_covers_a_contact_the_coarse_mesh_did_not_make():
+    rows = coverage_rows(*_runs(far_contact=True, overlap_there=True))
+    assert _uncovered(rows, "contact", 0) == 1
+    assert _uncovered(rows, "contact + overlap", 0) == 0
+
+
+def test_runs_of_different_grids_or_surfaces_are_refused():
+    coarse, fine = _runs(far_contact=False, overlap_there=False)
+    with pytest.raises(InputError, match="twice"):
+        coverage_rows(coarse, coarse)
+    other = SimpleNamespace(**{**vars(fine), "maps": {**fine.maps,
+                                                       "surface_heights": -fine.maps[
+                                                           "surface_heights"]}})
+    with pytest.raises(InputError, match="same surface"):
+        coverage_rows(coarse, other)
+
+
+def test_the_table_is_written_whole(tmp_path):
+    rows = coverage_rows(*_runs(far_contact=True, overlap_there=False), margins=(0, 4))
+    path = write_rows(rows, tmp_path / "zone_cover.csv")
+    with open(path) as stream:
+        written = list(csv.DictReader(stream))
+    assert [int(row["uncovered"]) for row in written] == [1, 0, 1, 0]
+    assert [p.name for p in tmp_path.iterdir()] == ["zone_cover.csv"]
+
+
+def test_bench_zone_takes_pairs_of_runs(tmp_path, capsys):
+    assert main(["bench", "zone", str(tmp_path / "one.h5")]) == 2
+    assert "pairs of runs" in capsys.readouterr().err
