@@ -103,6 +103,8 @@ def add_bench_commands(bench) -> None:
                       help="pairs of results files: a run, then the same case on the 2x mesh")
     zone.add_argument("--margins", type=int, nargs="+", metavar="M", default=None,
                       help="zone margins in cells of the coarse grid (default 0-5)")
+    zone.add_argument("--labels", nargs="+", metavar="TEXT",
+                      help="one name per pair (default: surface, F* and the two grids)")
     zone.add_argument("--output", metavar="CSV", default=str(BENCH_DIR / "zone_cover.csv"),
                       help="the table (default %(default)s)")
     zone.set_defaults(run=cmd_bench_zone)
@@ -161,9 +163,14 @@ def cmd_bench_zone(args) -> dict:
     margins = MARGINS if args.margins is None else args.margins
     if any(margin < 0 for margin in margins):
         raise InputError(f"zone margins are cells >= 0, got {margins}")
+    pairs = list(zip(args.runs[::2], args.runs[1::2], strict=True))
+    labels = [None] * len(pairs) if args.labels is None else args.labels
+    if len(labels) != len(pairs):
+        raise InputError(f"--labels takes one name per pair of runs ({len(pairs)}), got "
+                         f"{len(labels)}")
     rows = []
-    for coarse, fine in zip(args.runs[::2], args.runs[1::2], strict=True):
-        rows += coverage_rows(read_run(coarse), read_run(fine), margins)
+    for (coarse, fine), label in zip(pairs, labels, strict=True):
+        rows += coverage_rows(read_run(coarse), read_run(fine), margins, label)
     path = write_rows(rows, Path(args.output))
     return {"csv": str(path), "coverage": {key: [row[key] for row in rows] for key in rows[0]}}
 

@@ -273,7 +273,7 @@ def zone_cover_table(bench: Path) -> str:
              + [f"{cells[m]['uncovered']} ({100 * float(cells[m]['zone_share']):.0f} %)"
                 if m in cells else "–" for m in margins]
              for (case, rule), cells in groups.items()]
-    return markdown_table(["case", "zone from", "2x contact nodes"]
+    return markdown_table(["case", "zone from", "contact nodes of the finer run"]
                           + [f"margin {m}" for m in margins], table)
 
 

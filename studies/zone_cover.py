@@ -41,7 +41,7 @@ def contact_of(run) -> np.ndarray:
     return contact
 
 
-def coverage_rows(coarse, fine, margins=MARGINS) -> list[dict]:
+def coverage_rows(coarse, fine, margins=MARGINS, label: str | None = None) -> list[dict]:
     """One row per zone rule and margin: the zone's share of the coarse cells [-] and the fine
     run's contact nodes it leaves uncovered [-].
 
@@ -52,6 +52,8 @@ def coverage_rows(coarse, fine, margins=MARGINS) -> list[dict]:
         with its ``surface_heights`` map.
     margins : sequence of int
         Margins [coarse cells].
+    label : str, optional
+        The case's name in the rows (default: surface, F* and the two grids).
     """
     heights = np.asarray(coarse.maps.get("surface_heights"), dtype=float)
     fine_contact = contact_of(fine)
@@ -67,13 +69,15 @@ def coverage_rows(coarse, fine, margins=MARGINS) -> list[dict]:
     candidates = {rule: contact_of(coarse) | (overlapped_nodes(heights, 0, lowest) if overlap
                                               else False)
                   for rule, overlap in RULES.items()}
-    case = f"{coarse.inputs['surface']['name']} F*={coarse.inputs['loading']['load_star']:g}"
+    if label is None:
+        label = (f"{coarse.inputs['surface']['name']} "
+                 f"F*={coarse.inputs['loading']['load_star']:g}, {n}² -> {2 * n}²")
     rows = []
     for rule, nodes in candidates.items():
         for margin in margins:
             zone = cells_at_nodes(nodes, margin)
             uncovered = uncovered_nodes(surface_levels(n, 1, zone), 1, fine_contact)
-            rows.append({"case": f"{case}, {n}² -> {2 * n}²", "rule": rule, "margin": margin,
+            rows.append({"case": label, "rule": rule, "margin": margin,
                          "zone_share": float(zone.mean()),
                          "uncovered": int(np.count_nonzero(uncovered)),
                          "fine_contact_nodes": int(np.count_nonzero(fine_contact))})

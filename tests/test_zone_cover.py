@@ -75,3 +75,15 @@ def test_the_table_is_written_whole(tmp_path):
 def test_bench_zone_takes_pairs_of_runs(tmp_path, capsys):
     assert main(["bench", "zone", str(tmp_path / "one.h5")]) == 2
     assert "pairs of runs" in capsys.readouterr().err
+
+
+def test_bench_zone_takes_one_label_per_pair(tmp_path, capsys):
+    runs = [str(tmp_path / name) for name in ("a.h5", "b.h5")]
+    assert main(["bench", "zone", *runs, "--labels", "one", "two"]) == 2
+    assert "one name per pair" in capsys.readouterr().err
+
+
+def test_rows_carry_the_label_given():
+    rows = coverage_rows(*_runs(far_contact=False, overlap_there=False), margins=(0,),
+                         label="window 1")
+    assert {row["case"] for row in rows} == {"window 1"}
