@@ -38,8 +38,9 @@ WINDOW_SCATTER_LOADS = (0.155,)
 #: Most windows per surface in that scatter [-].
 SCATTER_WINDOWS = 4
 #: Loads F* at which the mu_s figures (22–28) also run each FEM point on a 2x finer mesh of the
-#: same surface (``studies.refinement.next_mesh``), for its error bar; above them the 2x runs
-#: cost hours on 2 cores and those points carry no bar (docs/verification.md).
+#: same surface (``studies.refinement.next_mesh``), for its error bar, where the 1x error is
+#: largest; above them the points carry no bar although their 1x error is not negligible
+#: (docs/benchmarks.md: G5 at F* = 0.93, 5 %), to save the 2x runs.
 ERROR_BAR_LOADS = (0.06, 0.155)
 #: Surface and load F* of Fig. 15 (junction growth; Fig. 17 shows the theory at this load).
 JUNCTION_SURFACE, JUNCTION_LOAD = "2L", 0.5
