@@ -573,8 +573,10 @@ class RigidFlat:
         "contact": p_a > 0 (bool); "slip": in contact and every point of its tributary area
         slipping (bool); "pressure" and "shear_x": the consistent nodal forces over the node's
         tributary area A_a [Pa]; "contact_fraction": per finest cell (i, j), the fraction of the
-        area of the face holding it in contact [-]. Grid points without a free surface node
-        (inside a coarse face, or where it hangs) are out of contact with zero forces.
+        area of the face holding it in contact [-]; "gap": the weighted gap g~_a between the
+        flat and the deformed surface [m] (negative: penetration). Grid points without a free
+        surface node (inside a coarse face, or where it hangs) are out of contact with zero
+        forces and no gap (NaN).
         """
         n = self.grid_size
         touching = self._tributary @ response.in_contact.astype(float)
@@ -588,6 +590,7 @@ class RigidFlat:
             "pressure": (response.node_force[:, 2] / area).reshape(n, n),
             "shear_x": (-response.node_force[:, 0] / area).reshape(n, n),
             "contact_fraction": self.faces.on_grid(fraction),
+            "gap": np.where(self.node_free, response.node_gap, np.nan).reshape(n, n),
         }
 
     def touching_height(self, displacement: np.ndarray, force: float,

@@ -167,7 +167,7 @@ def surface_contact(solid: Solid, block: Block, case: FemCase, reduction: Period
 def contact_maps(flat: RigidFlat, contact: ContactResponse, phase: str) -> dict:
     """The surface maps of a contact state, keyed ``<map>_<phase>`` (see ``FemRun.maps``)."""
     maps = flat.node_maps(contact)
-    names = ("contact", "pressure", "contact_fraction") + (
+    names = ("contact", "pressure", "contact_fraction", "gap") + (
         ("slip", "shear_x") if phase == "sliding" else ())
     return {f"{name}_{phase}": maps[name] for name in names}
 

@@ -269,7 +269,8 @@ def junction_growth(run: RunFile) -> dict:
 
 
 #: The unit of each non-flag surface map, by its name without the phase suffix.
-MAP_UNITS = {"pressure": "Pa", "shear_x": "Pa", "contact_fraction": "-", "surface_heights": "m"}
+MAP_UNITS = {"pressure": "Pa", "shear_x": "Pa", "contact_fraction": "-", "surface_heights": "m",
+             "gap": "m"}
 
 
 def map_unit(name: str) -> str:
@@ -287,7 +288,7 @@ def map_summary(name: str, values: np.ndarray) -> dict:
     Contact and slip flags: nodes set, their fraction, patches (periodic connectivity) and
     nodes per patch. Contact fractions (per cell, the fraction of its area in contact) [-]:
     their mean, which is A_r/A_n, the largest, and the cells with any contact. Pressures and
-    shear [Pa]: max and mean over the nonzero nodes. Heights [m]: min and max.
+    shear [Pa]: max and mean over the nonzero nodes. Heights and gaps [m]: min and max.
     """
     from roughfriction.solver.results import count_patches
 
@@ -298,8 +299,8 @@ def map_summary(name: str, values: np.ndarray) -> dict:
         return {"nodes": nodes, "fraction": nodes / values.size, "patches": patches,
                 "nodes_per_patch": nodes / patches if patches else None}
     unit = map_unit(name)
-    if unit == "m":
-        return {"min_m": float(values.min()), "max_m": float(values.max())}
+    if unit == "m":  # heights, or gaps (NaN where a grid point has no surface node)
+        return {"min_m": float(np.nanmin(values)), "max_m": float(np.nanmax(values))}
     if unit == "-":
         return {"area_ratio": float(values.mean()), "max_cell_fraction": float(values.max()),
                 "cells_in_contact": int(np.count_nonzero(values))}

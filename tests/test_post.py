@@ -144,6 +144,9 @@ def test_each_map_summary_states_its_own_unit(run_file):
         "max_Pa": 2e9, "mean_nonzero_Pa": 2e9}
     assert set(map_summary("surface_heights", HEIGHTS)) == {"min_m", "max_m"}
     assert set(map_summary("shear_x_sliding", -np.ones((N, N)))) == {"max_Pa", "mean_nonzero_Pa"}
+    gap = np.full((N, N), 2e-9)
+    gap[0, 0], gap[1, 1] = -1e-9, np.nan  # a penetrating node; a grid point without a node
+    assert map_summary("gap_sliding", gap) == {"min_m": -1e-9, "max_m": 2e-9}
     with pytest.raises(ValueError, match="unit"):  # a new map must say its unit first
         map_summary("temperature_normal", np.ones((N, N)))
 

@@ -87,6 +87,8 @@ def test_a_raised_node_alone_touches_with_its_tributary_area(points):
     maps = flat.node_maps(response)
     assert maps["contact"].sum() == 1 and maps["contact"][1, 1]
     assert maps["contact_fraction"].sum() == pytest.approx(1.0)
+    assert maps["gap"][1, 1] == response.node_gap[5] < 0.0  # penetrates; the others open
+    assert np.all(np.delete(maps["gap"].ravel(), 5) > 0.0)
     assert flat.normal_force(response) == pytest.approx(
         PENALTY * (mean * 1e-8 - 0.5e-8) * SPACING**2)
 
@@ -370,6 +372,9 @@ def test_faces_of_varying_width_tile_the_surface_and_carry_a_uniform_pressure():
     maps = flat.node_maps(response)
     assert maps["contact"].sum() == free.sum() < n * n
     np.testing.assert_allclose(maps["contact_fraction"], 1.0)
+    gap = maps["gap"].ravel()
+    np.testing.assert_allclose(gap[free], -depth, rtol=1e-12)
+    assert np.all(np.isnan(gap[~free]))  # no node of its own there
     cell_face = faces.on_grid(np.arange(len(faces.width)))  # each finest cell in its face
     for face, ((i0, j0), width) in enumerate(zip(faces.first, faces.width, strict=True)):
         assert np.all(cell_face[i0:i0 + width, j0:j0 + width] == face)

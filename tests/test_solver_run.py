@@ -31,6 +31,10 @@ def test_a_run_takes_the_blend_layers_its_surface_needs_and_says_so():
     assert fem.result.sizes["blend_layers"] == 3
     notes = [line for line in lines if "blend layers" in line]
     assert len(notes) == 1 and notes[0].startswith("note: 3 blend layers instead of 2")
+    # the gap map: nodes in contact close (to the penalty's penetration), the others open
+    gap, contact = fem.maps["gap_normal"], fem.maps["contact_normal"]
+    assert contact.any() and not contact.all()
+    assert np.all(np.abs(gap[contact]) < 1e-3 * SPACING) and np.all(gap[~contact] > 0.0)
 
 
 def test_more_blend_layers_than_needed_are_kept():
