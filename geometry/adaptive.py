@@ -318,9 +318,10 @@ def uncovered_nodes(levels: np.ndarray, level: int, contact: np.ndarray) -> np.n
     numpy.ndarray
         bool, shape (N, N).
     """
-    coarse = np.asarray(levels) < level  # node (i, j) is a corner of cells (i - 1 .. i, j - 1 .. j)
-    around = coarse | np.roll(coarse, 1, axis=0) | np.roll(coarse, 1, axis=1)
-    around |= np.roll(coarse, (1, 1), axis=(0, 1))
+    coarse = np.asarray(levels) < level
+    around = coarse.copy()  # node (i, j) is a corner of cells (i - 1 .. i, j - 1 .. j)
+    for shift in ((1, 0), (0, 1), (1, 1)):
+        around |= np.roll(coarse, shift, axis=(0, 1))
     return np.asarray(contact, dtype=bool) & around
 
 

@@ -6,6 +6,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from roughfriction.geometry.adaptive import overlapped_nodes
 from scipy import ndimage
 
 
@@ -69,6 +70,25 @@ class StepRecord:
                 f"ux={self.slide:.4e} m Ar/An={self.area_ratio:.4f} nodes={self.contact_nodes} "
                 f"slip={self.slipping_nodes} plastic={self.plastic_volume_fraction:.4f} "
                 f"newton={self.newton_iterations} t={self.wall_s:.1f}s")
+
+
+def touched_nodes(maps: dict) -> np.ndarray:
+    """Nodes in contact at the end of the preload or at inception (when reached): the union of
+    a run's maps "contact_normal" and "contact_sliding", bool, on its finest grid."""
+    contact = np.asarray(maps["contact_normal"], dtype=bool)
+    if "contact_sliding" in maps:
+        contact = contact | np.asarray(maps["contact_sliding"], dtype=bool)
+    return contact
+
+
+def candidate_nodes(maps: dict, heights: np.ndarray, level: int, lowest_flat: float
+                    ) -> np.ndarray:
+    """Where a finer mesh may be in contact, on a run's finest grid (bool): the nodes in
+    contact (:func:`touched_nodes` of the run's ``maps``) and those a rigid flat at the run's
+    lowest height ``lowest_flat`` [m] overlaps on the undeformed surface of the own-grid
+    ``heights`` [m] refined ``level`` times (``geometry.adaptive.overlapped_nodes``), which a
+    more compliant mesh may bring into contact although this one does not."""
+    return touched_nodes(maps) | overlapped_nodes(heights, level, lowest_flat)
 
 
 def count_patches(contact: np.ndarray) -> int:

@@ -19,7 +19,6 @@ from roughfriction.geometry.adaptive import (
     AdaptiveLayout,
     CellSizes,
     layout_dofs,
-    overlapped_nodes,
 )
 from roughfriction.geometry.adaptive import estimated_memory_gb as adaptive_memory_gb
 from roughfriction.geometry.mesh import Block, blend_layers_needed, estimated_memory_gb, mesh_size
@@ -31,7 +30,7 @@ from roughfriction.solver.fields import FieldWriter
 from roughfriction.solver.linear import node_memory_available_gb
 from roughfriction.solver.periodic import PeriodicReduction, dof_node_grid_index
 from roughfriction.solver.progress import LoadStarted, RunStarted
-from roughfriction.solver.results import FemResult
+from roughfriction.solver.results import FemResult, candidate_nodes
 from roughfriction.solver.solid import Solid
 from roughfriction.solver.stepping import LoadPath, Outcome
 
@@ -99,25 +98,13 @@ def check_memory(n: int, options: MeshOptions, comm: MPI.Comm,
                          "refinement or more nodes")
 
 
-def contact_nodes(maps: dict) -> np.ndarray:
-    """Nodes in contact at the end of the preload or at inception (when reached): the union of
-    ``FemRun.maps``' "contact_normal" and "contact_sliding", bool, on the finest grid."""
-    contact = np.asarray(maps["contact_normal"], dtype=bool)
-    if "contact_sliding" in maps:
-        contact = contact | np.asarray(maps["contact_sliding"], dtype=bool)
-    return contact
-
-
 def contact_candidates(case: FemCase, fem_run: FemRun) -> np.ndarray:
-    """Where a finer mesh of ``case`` may be in contact, on the run's finest grid (bool): the
-    nodes in contact (:func:`contact_nodes`) and those the rigid flat overlaps at its lowest
-    position of the run (``geometry.adaptive.overlapped_nodes``), which a more compliant mesh
-    may bring into contact although this one does not."""
+    """Where a finer mesh of ``case`` may be in contact, on the run's finest grid (bool):
+    ``solver.results.candidate_nodes`` at the flat's lowest position of the run."""
     refinement = case.mesh.refinement
     lowest = min(record.flat_height for record in fem_run.result.records)
-    overlapped = overlapped_nodes(case.surface.heights, refinement.level if refinement else 0,
-                                  lowest)
-    return contact_nodes(fem_run.maps) | overlapped
+    return candidate_nodes(fem_run.maps, case.surface.heights,
+                           refinement.level if refinement else 0, lowest)
 
 
 def stderr_progress(comm):

@@ -263,17 +263,23 @@ def calibration_table(bench: Path) -> str:
 
 def zone_cover_table(bench: Path) -> str:
     """`roughfriction bench zone`: per case and zone rule, the 2x run's contact nodes a zone of
-    each margin leaves uncovered, and the zone's share of the cells (zone_cover.csv)."""
+    each margin leaves uncovered, and the zone's share of the cells; with the coarse run's
+    lowest flat and the share of nodes it overlaps (zone_cover.csv)."""
     rows = read_rows(bench / "zone_cover.csv")
     margins = list(dict.fromkeys(row["margin"] for row in rows))
     groups: dict[tuple[str, str], dict[str, dict]] = {}
     for row in rows:
         groups.setdefault((row["case"], row["rule"]), {})[row["margin"]] = row
-    table = [[case, rule, cells[margins[0]]["fine_contact_nodes"]]
-             + [f"{cells[m]['uncovered']} ({100 * float(cells[m]['zone_share']):.0f} %)"
-                if m in cells else "–" for m in margins]
-             for (case, rule), cells in groups.items()]
-    return markdown_table(["case", "zone from", "contact nodes of the finer run"]
+    table = []
+    for (case, rule), cells in groups.items():
+        first = cells[margins[0]]
+        flat = (f"{1e9 * float(first['lowest_flat_m']):.0f} nm, "
+                f"{100 * float(first['overlap_share']):.0f} %")
+        table.append([case, flat, rule, first["fine_contact_nodes"]]
+                     + [f"{cells[m]['uncovered']} ({100 * float(cells[m]['zone_share']):.0f} %)"
+                        if m in cells else "–" for m in margins])
+    return markdown_table(["case", "lowest flat above the mean plane, nodes it overlaps",
+                           "zone from", "contact nodes of the finer run"]
                           + [f"margin {m}" for m in margins], table)
 
 

@@ -23,27 +23,23 @@ from roughfriction.geometry.adaptive import (
     surface_levels,
     uncovered_nodes,
 )
+from roughfriction.solver.results import candidate_nodes, touched_nodes
 from roughfriction.studies.bench_fem import write_csv
 
 #: Margins [cells of the coarse grid] tried by default.
 MARGINS = (0, 1, 2, 3, 4, 5)
-#: Zone rules: name -> whether the flat's overlap of the undeformed surface joins the contact.
+#: Zone rules: name -> whether the flat's overlap of the undeformed surface joins the contact
+#: (``solver.results.candidate_nodes``, the adaptive ladder's rule) or not.
 RULES = {"contact": False, "contact + overlap": True}
 #: Columns of the coverage table.
-FIELDS = ("case", "rule", "margin", "zone_share", "uncovered", "fine_contact_nodes")
-
-
-def contact_of(run) -> np.ndarray:
-    """Nodes of a run in contact at the end of the preload or at inception, bool (N, N)."""
-    contact = np.asarray(run.maps["contact_normal"], dtype=bool)
-    if "contact_sliding" in run.maps:
-        contact = contact | np.asarray(run.maps["contact_sliding"], dtype=bool)
-    return contact
+FIELDS = ("case", "rule", "margin", "zone_share", "uncovered", "fine_contact_nodes",
+          "lowest_flat_m", "overlap_share")
 
 
 def coverage_rows(coarse, fine, margins=MARGINS, label: str | None = None) -> list[dict]:
     """One row per zone rule and margin: the zone's share of the coarse cells [-] and the fine
-    run's contact nodes it leaves uncovered [-].
+    run's contact nodes it leaves uncovered [-]; with the coarse run's lowest flat height above
+    the mean plane [m] and the share of its nodes the flat overlaps there [-].
 
     Parameters
     ----------
@@ -55,23 +51,28 @@ def coverage_rows(coarse, fine, margins=MARGINS, label: str | None = None) -> li
     label : str, optional
         The case's name in the rows (default: surface, F* and the two grids).
     """
-    heights = np.asarray(coarse.maps.get("surface_heights"), dtype=float)
-    fine_contact = contact_of(fine)
-    n = heights.shape[0] if heights.ndim == 2 else 0
-    if n == 0 or fine_contact.shape != (2 * n, 2 * n):
-        raise InputError(f"the fine run's grid must be twice the coarse run's: "
-                         f"{fine_contact.shape} against {heights.shape}")
+    if "surface_heights" not in coarse.maps or "surface_heights" not in fine.maps:
+        raise InputError("both runs need their surface_heights map (results files written "
+                         "by roughfriction fem or the run cache)")
+    heights = np.asarray(coarse.maps["surface_heights"], dtype=float)
     fine_heights = np.asarray(fine.maps["surface_heights"], dtype=float)
+    n = heights.shape[0]
+    if fine_heights.shape != (2 * n, 2 * n):
+        raise InputError(f"the fine run's grid must be twice the coarse run's: "
+                         f"{fine_heights.shape} against {heights.shape}")
     if not np.allclose(fine_heights[::2, ::2] - fine_heights.mean(), heights - heights.mean(),
                        rtol=0.0, atol=1e-9 * np.ptp(heights)):
         raise InputError("the two runs do not mesh the same surface")
     lowest = float(np.min(coarse.steps["flat_height"]))
-    candidates = {rule: contact_of(coarse) | (overlapped_nodes(heights, 0, lowest) if overlap
-                                              else False)
-                  for rule, overlap in RULES.items()}
+    candidates = {rule: candidate_nodes(coarse.maps, heights, 0, lowest) if overlap
+                  else touched_nodes(coarse.maps) for rule, overlap in RULES.items()}
+    fine_contact = touched_nodes(fine.maps)
     if label is None:
         label = (f"{coarse.inputs['surface']['name']} "
                  f"F*={coarse.inputs['loading']['load_star']:g}, {n}² -> {2 * n}²")
+    common = {"fine_contact_nodes": int(np.count_nonzero(fine_contact)),
+              "lowest_flat_m": lowest,
+              "overlap_share": float(overlapped_nodes(heights, 0, lowest).mean())}
     rows = []
     for rule, nodes in candidates.items():
         for margin in margins:
@@ -79,8 +80,7 @@ def coverage_rows(coarse, fine, margins=MARGINS, label: str | None = None) -> li
             uncovered = uncovered_nodes(surface_levels(n, 1, zone), 1, fine_contact)
             rows.append({"case": label, "rule": rule, "margin": margin,
                          "zone_share": float(zone.mean()),
-                         "uncovered": int(np.count_nonzero(uncovered)),
-                         "fine_contact_nodes": int(np.count_nonzero(fine_contact))})
+                         "uncovered": int(np.count_nonzero(uncovered)), **common})
     return rows
 
 

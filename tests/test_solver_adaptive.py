@@ -167,7 +167,7 @@ def test_an_adaptive_level_gives_the_uniform_level_s_mu_s():
     mesh; the same level around the contact alone (a patch appears at 2x where the flat
     overlapped the surface at 1x) and with no zone at all both miss it."""
     from roughfriction.geometry.adaptive import refinement_after
-    from roughfriction.solver.run import contact_nodes
+    from roughfriction.solver.results import touched_nodes
     from roughfriction.studies.paper import fem_surface
     from roughfriction.studies.refinement import level_case
 
@@ -176,7 +176,7 @@ def test_an_adaptive_level_gives_the_uniform_level_s_mu_s():
     adaptive = adaptive_level_case(case, contact_candidates(case, base), margin=0)
     assert 16 <= adaptive.mesh.refinement.zone.sum() <= 48
     contact_only = replace(case, mesh=replace(case.mesh, refinement=refinement_after(
-        None, contact_nodes(base.maps), 1)))
+        None, touched_nodes(base.maps), 1)))
     empty = replace(case, mesh=replace(case.mesh, refinement=ZoneRefinement(
         1, np.zeros((8, 8), bool))))
     mu_s = {name: run(level, MPI.COMM_SELF, progress=lambda record: None).result.mu_s

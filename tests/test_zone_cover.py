@@ -50,6 +50,7 @@ def test_the_flats_overlap_covers_a_contact_the_coarse_mesh_did_not_make():
     rows = coverage_rows(*_runs(far_contact=True, overlap_there=True))
     assert _uncovered(rows, "contact", 0) == 1
     assert _uncovered(rows, "contact + overlap", 0) == 0
+    assert {(row["lowest_flat_m"], row["overlap_share"]) for row in rows} == {(1e-7, 2 / 64)}
 
 
 def test_runs_of_different_grids_or_surfaces_are_refused():
@@ -61,6 +62,10 @@ def test_runs_of_different_grids_or_surfaces_are_refused():
                                                            "surface_heights"]}})
     with pytest.raises(InputError, match="same surface"):
         coverage_rows(coarse, other)
+    bare = SimpleNamespace(**{**vars(fine),
+                              "maps": {"contact_normal": fine.maps["contact_normal"]}})
+    with pytest.raises(InputError, match="surface_heights"):
+        coverage_rows(coarse, bare)
 
 
 def test_the_table_is_written_whole(tmp_path):
