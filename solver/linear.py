@@ -124,6 +124,7 @@ class LinearSolver:
         self.fallbacks = 0  # how many times they did
         self._symmetric = True  # the operator is
         self._preconditioning = None  # handle of the matrix the preconditioner is built from
+        self._summed = None  # a sum operator's assembled sum, for LU factors
         self._factors_until_symmetric = False  # LU factors only for non-symmetric operators
 
     def set_operator(self, matrix: PETSc.Mat, symmetric: bool = True,
@@ -131,14 +132,16 @@ class LinearSolver:
         """Use ``matrix`` (new values, same pattern) for the next solves; CG if it is
         ``symmetric``, else GMRES, with the preconditioner built from the symmetric positive
         definite ``preconditioning`` matrix if given (not from LU factors, which are the
-        operator's). A symmetric operator ends an LU fallback that a non-symmetric one
-        started."""
+        operator's: an operator given as a sum of matrices is then summed into one). A
+        symmetric operator ends an LU fallback that a non-symmetric one started."""
         self._symmetric = symmetric
         if symmetric and self._factors_until_symmetric:
             self._factors_until_symmetric = False
             self._precondition_as_configured()
         self._use("cg" if symmetric else "gmres")
-        if preconditioning is None or self.ksp.getPC().getType() == "lu":
+        if self.ksp.getPC().getType() == "lu":
+            matrix = preconditioning = self._factorable(matrix)
+        elif preconditioning is None:
             preconditioning = matrix
         if preconditioning.handle != self._preconditioning:
             # a reused preconditioner keeps its matrix: build it from the new one
@@ -149,6 +152,14 @@ class LinearSolver:
             limit = (MAX_REUSED_ITERATIONS if self.method == "direct"
                      else REBUILD_FACTOR * self._fresh_iterations)
             self._rebuild = self._rebuild or self.last_iterations > limit
+
+    def _factorable(self, matrix: PETSc.Mat) -> PETSc.Mat:
+        """``matrix``, or for a sum of matrices (a python matrix with an ``assembled`` context,
+        :class:`solver.reduced_system.SumOperator`) their sum, kept and updated in place."""
+        if matrix.getType() != PETSc.Mat.Type.PYTHON:
+            return matrix
+        self._summed = matrix.getPythonContext().assembled(self._summed)
+        return self._summed
 
     def _use(self, krylov: str) -> None:
         """Switch to CG (left-preconditioned) or GMRES (right-preconditioned)."""
@@ -189,7 +200,7 @@ class LinearSolver:
             self.fell_back = failure
             self.fallbacks += 1
             self._factors_until_symmetric = not self._symmetric
-            operator = self.ksp.getOperators()[0]
+            operator = self._factorable(self.ksp.getOperators()[0])
             self._preconditioning = operator.handle
             self.ksp.setOperators(operator, operator)
             self._precondition_with_factors()
@@ -232,6 +243,8 @@ class LinearSolver:
     def destroy(self) -> None:
         """Free the KSP (petsc4py does not free PETSc objects that reference each other)."""
         self.ksp.destroy()
+        if self._summed is not None:
+            self._summed.destroy()
 
     def _apply(self, rhs: PETSc.Vec, solution: PETSc.Vec, fresh: bool) -> None:
         """One KSP solve, rebuilding the preconditioner if ``fresh`` (LU factors within

@@ -61,6 +61,12 @@ class PeriodicReduction:
         Reduced nodes owned by this rank.
     master_node : numpy.ndarray
         Local node of V behind each owned reduced node, in reduced order.
+    masters : numpy.ndarray
+        Global reduced nodes each local node of V (owned and ghost) takes its displacement from,
+        shape (num_nodes, 4), -1 in unused slots (one master for a node that does not hang,
+        none on the fixed bottom).
+    hanging : numpy.ndarray
+        Local nodes of V that hang (tied to 2 or 4 masters), bool.
     """
 
     def __init__(self, V, block: Block, cell_sizes: CellSizes | None = None):
@@ -104,6 +110,8 @@ class PeriodicReduction:
             -1, weights.shape[1])
         weights = np.where(above_bottom[:, None], weights, 0.0)
         self.reduced_node = np.where(above_bottom & ~hanging, columns[:, 0], -1)
+        self.masters = np.where(weights > 0.0, columns, -1)
+        self.hanging = hanging & above_bottom
         self.num_reduced_global = comm.allreduce(self.num_reduced_owned, op=MPI.SUM)
         self.P = self._matrix(comm, index_map, num_owned, columns[:num_owned],
                               weights[:num_owned])
@@ -132,6 +140,13 @@ class PeriodicReduction:
         )
         P.assemble()
         return P
+
+    def local_to_reduced(self) -> PETSc.LGMap:
+        """The map (block size 3) from each local node of V to its global reduced node, -1 at
+        the fixed bottom and at hanging nodes: PETSc drops the rows and columns it maps to -1,
+        so a cell without hanging nodes assembled through it adds P^T K_cell P."""
+        return PETSc.LGMap().create(self.reduced_node.astype(PETSc.IntType), bsize=3,
+                                    comm=self.P.comm)
 
     def destroy(self) -> None:
         """Free P."""

@@ -40,6 +40,56 @@ class J2State:
 
 
 @dataclass(frozen=True)
+class PlasticHistory:
+    """The J2 history of ``num_points`` quadrature points, held only where the material has
+    yielded (p > 0): elsewhere the plastic strain and p are zero.
+
+    Attributes
+    ----------
+    num_points : int
+        Points described.
+    points : numpy.ndarray
+        The points with p > 0, ascending (int64).
+    state : J2State
+        The history at ``points``.
+    """
+
+    num_points: int
+    points: np.ndarray
+    state: J2State
+
+    @classmethod
+    def virgin(cls, num_points: int) -> PlasticHistory:
+        """Undeformed material at ``num_points`` points."""
+        return cls(num_points, np.empty(0, dtype=np.int64), J2State.virgin(0))
+
+    @classmethod
+    def of_block(cls, num_points: int, first: int, state: J2State) -> PlasticHistory:
+        """The yielded points of a dense ``state`` of the points from ``first`` on."""
+        yielded = np.flatnonzero(state.equivalent_plastic_strain > 0.0)
+        return cls(num_points, first + yielded, J2State(
+            state.plastic_strain[yielded], state.equivalent_plastic_strain[yielded]))
+
+    @classmethod
+    def concatenate(cls, parts: list[PlasticHistory]) -> PlasticHistory:
+        """One history of ``parts`` of the same points, each of other points, in order."""
+        return cls(parts[0].num_points, np.concatenate([part.points for part in parts]),
+                   J2State(np.concatenate([part.state.plastic_strain for part in parts]),
+                           np.concatenate([part.state.equivalent_plastic_strain
+                                           for part in parts])))
+
+    def dense(self, first: int = 0, last: int | None = None) -> J2State:
+        """The history of points ``first`` up to ``last`` (default: all) as dense arrays."""
+        last = self.num_points if last is None else last
+        state = J2State.virgin(last - first)
+        start, end = np.searchsorted(self.points, [first, last])
+        where = self.points[start:end] - first
+        state.plastic_strain[where] = self.state.plastic_strain[start:end]
+        state.equivalent_plastic_strain[where] = self.state.equivalent_plastic_strain[start:end]
+        return state
+
+
+@dataclass(frozen=True)
 class J2Response:
     """Stress, trial history and consistent tangent for one strain state.
 

@@ -12,9 +12,7 @@ where a slipping point's shear cap follows its pressure, see :mod:`solver.contac
 
 from __future__ import annotations
 
-import ctypes
-import functools
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from dolfinx.fem import petsc as fem_petsc
@@ -24,40 +22,61 @@ from roughfriction.case import SolverOptions
 from roughfriction.solver.contact import ContactResponse, RigidFlat
 from roughfriction.solver.linear import LinearSolver
 from roughfriction.solver.periodic import PeriodicReduction
+from roughfriction.solver.reduced_assembly import ReducedAssembler, add_rows, reduced_rows
 from roughfriction.solver.solid import Solid
 
-#: Above this fraction of the cells yielding, the plastic correction is reduced with the elastic
-#: part on the whole mesh (P^T K P with its pattern reused), below it on the yielding cells'
-#: couplings alone (whose cost grows with them; measured crossover 15-20 % at N = 64) [-].
+#: Above this fraction of the cells yielding, the solid tangent is assembled afresh on the whole
+#: mesh, below it the plastic correction is reduced on the yielding cells' couplings alone and
+#: added to the kept elastic part (whose cost grows with them; measured crossover 15-20 % at
+#: N = 64 when the whole mesh went through MatPtAP) [-].
 WHOLE_MESH_YIELDING = 0.15
 #: The tightest relative Krylov tolerance asked of a linear solve [-].
 SMALLEST_TOLERANCE = 1e-10
-
-
-@functools.cache
-def _petsc_function(name: str):
-    """The C function ``name`` of the PETSc library petsc4py is linked to (ctypes), or None."""
-    return getattr(ctypes.CDLL(PETSc.__file__), name, None)
-
-
-def free_product_data(matrix: PETSc.Mat) -> None:
-    """Drop what PETSc keeps with the result of a matrix product (P^T K P) to repeat it: its
-    intermediate products and its references to the factors, so that a factor the caller
-    destroys is freed at once (MatProductClear, which petsc4py does not wrap; a no-op where
-    the library lacks it)."""
-    clear = _petsc_function("MatProductClear")
-    if clear is not None and clear(ctypes.c_void_p(matrix.handle)) != 0:
-        raise RuntimeError("MatProductClear failed")
 
 
 @dataclass
 class TangentAdditions:
     """What the tangent holds beyond P^T K_elastic P, to be taken back at the next assembly:
     the reduced plastic correction's rows (row pointer, columns, values [N/m], global rows) and
-    the contact's node blocks (nodes, 3 x 3 blocks [N/m]); None where nothing was added."""
+    the contact's node blocks (nodes, 3 x 3 blocks [N/m], scale), None or empty where nothing
+    was added."""
 
     plastic: tuple | None = None
-    node_blocks: tuple | None = None
+    node_blocks: list = field(default_factory=list)
+
+
+class SumOperator:
+    """The Newton operator as the sum of assembled matrices, y = sum_i A_i x (a PETSc python
+    matrix context): the symmetric tangent and the contact's coupling dt/dp, which is held in
+    a matrix of the coupled nodes' rows alone rather than in a copy of the tangent."""
+
+    def __init__(self, parts: list[PETSc.Mat]):
+        self.parts = parts
+
+    def mult(self, matrix, x: PETSc.Vec, y: PETSc.Vec) -> None:
+        """y = sum_i A_i x."""
+        self.parts[0].mult(x, y)
+        for part in self.parts[1:]:
+            part.multAdd(x, y, y)
+
+    def assembled(self, into: PETSc.Mat | None = None) -> PETSc.Mat:
+        """The sum as one matrix with the first part's pattern (the others' lie in it): new,
+        or written into ``into`` (an earlier result)."""
+        if into is None:
+            into = self.parts[0].duplicate(copy=True)
+        else:
+            self.parts[0].copy(into, structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
+        for part in self.parts[1:]:
+            into.axpy(1.0, part, structure=PETSc.Mat.Structure.SUBSET_NONZERO_PATTERN)
+        return into
+
+
+def sum_operator(parts: list[PETSc.Mat]) -> PETSc.Mat:
+    """A PETSc matrix that applies the sum of ``parts`` (:class:`SumOperator`)."""
+    operator = PETSc.Mat().createPython(parts[0].getSizes(), SumOperator(parts),
+                                        comm=parts[0].getComm())
+    operator.setUp()
+    return operator
 
 
 class ReducedSystem:
@@ -79,7 +98,11 @@ class ReducedSystem:
     residual : petsc4py.PETSc.Vec
         R [N] at the last :meth:`assemble`.
     tangent : petsc4py.PETSc.Mat
-        K [N/m] at the last :meth:`assemble_tangent`.
+        K [N/m] at the last :meth:`assemble_tangent`, without the contact's coupling dt/dp
+        (symmetric positive definite; the preconditioner is built from it).
+    operator : petsc4py.PETSc.Mat
+        K with the coupling: a :class:`SumOperator` of ``tangent`` and, while it is not
+        symmetric, the coupling (one object for the whole run).
     x1 : petsc4py.PETSc.Vec
         The Newton direction du [m] after :meth:`bordered_solve`.
     x2 : petsc4py.PETSc.Vec
@@ -93,11 +116,11 @@ class ReducedSystem:
         self.solid, self.reduction, self.flat = solid, reduction, flat
         self.comm = solid.V.mesh.comm
         self._residual_full = fem_petsc.create_vector(solid.residual_forms[0])
-        self._tangent_full = None  # K_elastic + K_plastic on the whole mesh, once needed
-        self._solid_tangent = None  # its P^T K P
+        self._assembler = ReducedAssembler(solid.V, reduction)
         self.tangent = None  # P^T K P + contact, created at the first assembly
         self._additions = None  # what the tangent holds beyond P^T K_elastic P (None: unknown)
-        self._uncoupled_tangent = None  # the tangent without dt/dp, once it is not symmetric
+        self._coupling = None  # dt/dp of the coupled nodes' rows, while not symmetric
+        self.operator = None  # tangent (+ coupling): a SumOperator, created with the tangent
         self.symmetric = True
         self.coupled = False
         self.residual = reduction.create_reduced_vector()
@@ -167,58 +190,76 @@ class ReducedSystem:
         node and its 25 neighbours, at the iterate of the last :meth:`assemble` (whose
         ``contact`` response is passed).
 
-        The reduced elastic part is built once, in a matrix with the contact's pattern as well
-        (:meth:`_system_matrix`), which then holds the tangent: each assembly takes back what
-        the last one added to it (:class:`TangentAdditions`) and adds the new terms, so no
-        second matrix of the system's size is kept. The plastic correction is assembled and
-        reduced on the couplings of the yielding cells alone and added row by row while few
-        cells yield (``WHOLE_MESH_YIELDING``), else in the whole mesh's pattern (kept, with its
-        P^T K P, and reused). The blocks of the nodes that touch are added row by row.
+        The tangent matrix is created once with its whole pattern and the reduced elastic part
+        (:mod:`solver.reduced_assembly`: no full-mesh matrix). Each assembly then takes back
+        what the last one added (:class:`TangentAdditions`) and adds the plastic correction,
+        assembled and reduced on the couplings of the yielding cells alone, row by row; while
+        many cells yield (``WHOLE_MESH_YIELDING``) the solid tangent is assembled afresh on the
+        whole mesh instead. The blocks of the nodes that touch are added row by row.
         """
         if self.tangent is None:
             self._create_tangent()
-        plastic = self.solid.plastic_tangent_form()
-        if plastic is not None and self.solid.yielding_fraction() > WHOLE_MESH_YIELDING:
-            self._reduce_whole_mesh(plastic)
+        yielding = self.solid.yielding_fraction()
+        if yielding > WHOLE_MESH_YIELDING:
+            self.tangent.zeroEntries()
+            self._add_solid_tangent(plastic=True)
             self._additions = None
         else:
             self._restore_elastic_part()
-            if plastic is not None:
-                self._additions.plastic = self._add_plastic_correction(plastic)
-        self._add_node_blocks(self.tangent, *contact.node_blocks)
-        if self._additions is not None:
-            self._additions.node_blocks = contact.node_blocks
-        self.tangent.assemble()
+            if yielding > 0.0:
+                self._additions.plastic = self._add_plastic_correction()
         self.symmetric = self.comm.allreduce(contact.symmetric, op=MPI.LAND)
         self.coupled = self.comm.allreduce(contact.coupled, op=MPI.LOR)
+        blocks = [(*contact.node_blocks, 1.0)]
         if not self.symmetric:
-            self._assemble_uncoupled_tangent(contact)
+            blocks.append((*contact.coupling_blocks, -1.0))
+        for nodes, values, scale in blocks:
+            self._add_node_blocks(self.tangent, nodes, values, scale)
+        if self._additions is not None:
+            self._additions.node_blocks = blocks
+        self.tangent.assemble()
+        self._set_coupling(None if self.symmetric else contact.coupling_blocks)
 
     def _create_tangent(self) -> None:
-        """The tangent matrix, holding the reduced elastic part in the system's pattern (the
-        full-mesh elastic tangent is freed as soon as it is reduced)."""
-        full = self._assemble_full(self.solid.elastic_tangent_forms)
-        full.assemble()
-        elastic = self.reduction.reduce_matrix(full)
-        free_product_data(elastic)  # else PETSc keeps the full matrix alive with it
-        full.destroy()
-        self.tangent = self._system_matrix(elastic)
-        elastic.destroy()
+        """The tangent matrix: the pattern of the solid and of the contact blocks (each owned
+        surface node's rows gain the columns of its 25 neighbours), holding P^T K_elastic P."""
+        rows = self._contact_rows[:, 0] // 3
+        width = self._contact_columns.shape[1]
+        self.tangent = self._assembler.create_matrix(np.repeat(rows, width),
+                                                     self._contact_columns.ravel())
+        start, end = self.tangent.getOwnershipRange()
+        if np.any((self._contact_rows < start) | (self._contact_rows >= end)):
+            raise RuntimeError("a surface node's reduced rows are owned by another rank")
+        self._add_node_blocks(self.tangent, self.flat.owned_grid,
+                              np.zeros((len(rows), width, 3, 3)))
+        self._add_solid_tangent(plastic=False)
+        self.tangent.assemble()
+        self.operator = sum_operator([self.tangent])
         self._additions = TangentAdditions()
         if self._near_nullspace is not None:
             self.tangent.setNearNullSpace(self._near_nullspace)
 
+    def _add_solid_tangent(self, plastic: bool) -> None:
+        """Add P^T K_elastic P, and P^T K_plastic P of the yielding cells if ``plastic``, to
+        the tangent, assembled on the whole mesh (unassembled)."""
+        self._assembler.add(self.tangent, self.solid.elastic_tangent_forms_on)
+        if plastic:
+            self._assembler.add(self.tangent, self.solid.plastic_tangent_forms_on,
+                                self.solid.yielding_cells())
+
     def _restore_elastic_part(self) -> None:
         """Bring the tangent back to P^T K_elastic P: subtract the last additions, or after a
-        whole-mesh tangent, reduce the elastic part again in the whole mesh's kept pattern."""
+        whole-mesh tangent, assemble the elastic part afresh."""
         if self._additions is not None:
             if self._additions.plastic is not None:
-                self._add_rows(*self._additions.plastic, scale=-1.0)
-            if self._additions.node_blocks is not None:
-                self._add_node_blocks(self.tangent, *self._additions.node_blocks, scale=-1.0)
+                add_rows(self.tangent, *self._additions.plastic, scale=-1.0)
+            for nodes, values, scale in self._additions.node_blocks:
+                self._add_node_blocks(self.tangent, nodes, values, -scale)
             self.tangent.assemble()
         else:
-            self._reduce_whole_mesh(None)
+            self.tangent.zeroEntries()
+            self._add_solid_tangent(plastic=False)
+            self.tangent.assemble()
         self._additions = TangentAdditions()
 
     def _add_node_blocks(self, matrix: PETSc.Mat, nodes: np.ndarray, blocks: np.ndarray,
@@ -235,107 +276,41 @@ class ReducedSystem:
                 scale * blocks[touching].transpose(0, 2, 1, 3).reshape(len(owned), -1),
                 addv=PETSc.InsertMode.ADD_VALUES)
 
-    def _assemble_uncoupled_tangent(self, contact: ContactResponse) -> None:
-        """The preconditioning matrix of a non-symmetric tangent: the tangent without the
-        ramp's coupling dt/dp (:attr:`ContactResponse.coupling_blocks`), i.e. the symmetric
-        positive definite tangent of :attr:`RigidFlat.symmetric_tangent`."""
-        if self._uncoupled_tangent is None:
-            self._uncoupled_tangent = self.tangent.duplicate(copy=True)
-            if self._near_nullspace is not None:
-                self._uncoupled_tangent.setNearNullSpace(self._near_nullspace)
-        else:
-            self.tangent.copy(self._uncoupled_tangent,
-                              structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
-        self._add_node_blocks(self._uncoupled_tangent, *contact.coupling_blocks, scale=-1.0)
-        self._uncoupled_tangent.assemble()
+    def _set_coupling(self, coupling_blocks: tuple | None) -> None:
+        """The operator's parts: the tangent alone, or (``coupling_blocks`` given: nodes,
+        blocks) the tangent and a matrix of those blocks, preallocated for the coupled nodes'
+        rows. The operator stays one object (the linear solver's preconditioner may hold it);
+        the last coupling is released to PETSc, which frees it."""
+        self._coupling = None
+        if coupling_blocks is not None:
+            nodes, values = coupling_blocks
+            owned = self._owned_position[nodes]
+            start, end = self.tangent.getOwnershipRange()
+            row_nonzeros = np.zeros(end - start, dtype=PETSc.IntType)
+            row_nonzeros[self._contact_rows[owned[owned >= 0]] - start] = 3 * values.shape[1]
+            self._coupling = PETSc.Mat().createAIJ(self.tangent.getSizes(), bsize=3,
+                                                   comm=self.comm,
+                                                   nnz=(row_nonzeros, row_nonzeros))
+            self._add_node_blocks(self._coupling, nodes, values)
+            self._coupling.assemble()
+        self.operator.getPythonContext().parts = [
+            part for part in (self.tangent, self._coupling) if part is not None]
 
-    def _add_plastic_correction(self, plastic) -> tuple:
+    def _add_plastic_correction(self) -> tuple:
         """Add P^T K_plastic P to the tangent, assembled and reduced on the couplings of the
-        yielding cells (the ``plastic`` form's cells) alone, row by row; return its rows as
-        :meth:`_add_rows` takes them."""
-        correction = fem_petsc.assemble_matrix(plastic)
-        correction.assemble()
-        reduced = self.reduction.reduce_matrix(correction)
-        row_pointer, columns, values = reduced.getValuesCSR()
-        rows = np.flatnonzero(np.diff(row_pointer))
-        added = (np.append(row_pointer[rows], row_pointer[-1]), columns, values,
-                 (rows + reduced.getOwnershipRange()[0]).astype(PETSc.IntType))
-        correction.destroy()
-        reduced.destroy()
-        self._add_rows(*added)
+        yielding cells alone, row by row; return its rows as :func:`add_rows` takes them."""
+        added = reduced_rows(self.reduction,
+                             self.solid.plastic_tangent_forms_on(self.solid.yielding_cells()))
+        add_rows(self.tangent, *added)
         return added
-
-    def _add_rows(self, row_pointer: np.ndarray, columns: np.ndarray, values: np.ndarray,
-                  rows: np.ndarray, scale: float = 1.0) -> None:
-        """Add ``scale`` times the compressed ``rows`` (global reduced rows with their row
-        pointer, columns and values) to the tangent."""
-        if len(rows):  # (petsc4py divides by the number of values)
-            self.tangent.setValuesIJV(row_pointer, columns, scale * values,
-                                      addv=PETSc.InsertMode.ADD_VALUES, rowmap=rows)
-
-    def _reduce_whole_mesh(self, plastic) -> None:
-        """Set the tangent to P^T (K_elastic + K_plastic) P (``plastic`` None: the elastic
-        part alone), assembled and reduced on the whole mesh (the full matrix and its P^T K P
-        kept, their patterns reused; the elastic part is assembled again each time rather than
-        kept in a second full-mesh matrix)."""
-        if self._tangent_full is None:
-            self._tangent_full = self._assemble_full(self.solid.elastic_tangent_forms)
-        else:
-            self._tangent_full.zeroEntries()
-            for form in self.solid.elastic_tangent_forms:
-                fem_petsc.assemble_matrix(self._tangent_full, form)
-        if plastic is not None:
-            fem_petsc.assemble_matrix(self._tangent_full, plastic)
-        self._tangent_full.assemble()
-        self._solid_tangent = self.reduction.reduce_matrix(self._tangent_full,
-                                                           self._solid_tangent)
-        self.tangent.zeroEntries()
-        self.tangent.axpy(1.0, self._solid_tangent,
-                          structure=PETSc.Mat.Structure.SUBSET_NONZERO_PATTERN)
-
-    def _assemble_full(self, forms) -> PETSc.Mat:
-        """The bilinear ``forms`` summed on the whole mesh, unassembled (forms may follow)."""
-        matrix = fem_petsc.create_matrix(self.solid.elastic_tangent_forms[0])
-        for form in forms:
-            fem_petsc.assemble_matrix(matrix, form)
-        return matrix
-
-    def _system_matrix(self, solid: PETSc.Mat) -> PETSc.Mat:
-        """``solid`` (P^T K P) in a matrix with the nonzeros of the contact blocks as well: the
-        rows of each owned surface node gain the columns of its 25 neighbours. PETSc forms the
-        union (a sum with a zero matrix of the contact pattern), so no copy of the pattern is
-        made outside the new matrix."""
-        start, end = solid.getOwnershipRange()
-        contact_rows = self._contact_rows - start  # (m, 3) local rows
-        if np.any((contact_rows < 0) | (contact_rows >= end - start)):
-            raise RuntimeError("a surface node's reduced rows are owned by another rank")
-        column_start, column_end = solid.getOwnershipRangeColumn()
-        columns = (3 * self._contact_columns[:, :, None] + np.arange(3)).reshape(
-            len(contact_rows), -1)  # (m, 3 x widest row); negative: padding, ignored by PETSc
-        padded = self._contact_columns[:, :, None].repeat(3, axis=2).reshape(columns.shape) < 0
-        local = ~padded & (columns >= column_start) & (columns < column_end)
-        diagonal = np.zeros(end - start, dtype=PETSc.IntType)  # nonzeros per local row
-        diagonal[contact_rows] = np.count_nonzero(local, axis=1)[:, None]
-        off_diagonal = np.zeros(end - start, dtype=PETSc.IntType)
-        off_diagonal[contact_rows] = np.count_nonzero(~padded & ~local, axis=1)[:, None]
-        matrix = PETSc.Mat().createAIJ(solid.getSizes(), bsize=solid.getBlockSize(),
-                                       nnz=(diagonal, off_diagonal), comm=self.comm)
-        matrix.setValuesRCV(self._contact_rows.astype(PETSc.IntType),
-                            np.where(padded, -1, columns).astype(PETSc.IntType),
-                            np.zeros((len(contact_rows), 3 * columns.shape[1])))
-        matrix.assemble()
-        matrix.axpy(1.0, solid, structure=PETSc.Mat.Structure.DIFFERENT_NONZERO_PATTERN)
-        matrix.setOption(PETSc.Mat.Option.NEW_NONZERO_ALLOCATION_ERR, True)
-        return matrix
 
     # --- solves ---------------------------------------------------------------------------
 
     def set_operator(self) -> None:
-        """Hand the last assembled tangent to the linear solver, with the uncoupled tangent to
-        build the preconditioner from if it is not symmetric."""
-        self.linear_solver.set_operator(
-            self.tangent, self.symmetric,
-            preconditioning=None if self.symmetric else self._uncoupled_tangent)
+        """Hand the operator (tangent and coupling) to the linear solver, with the tangent
+        without the coupling to build the preconditioner from."""
+        self.linear_solver.set_operator(self.operator, self.symmetric,
+                                        preconditioning=self.tangent)
 
     def bordered_solve(self, force_error: float, tolerance: float, hold_height: bool
                        ) -> tuple[float, int]:
@@ -383,10 +358,10 @@ class ReducedSystem:
 
     def destroy(self) -> None:
         """Free the PETSc objects (matrices, vectors, the KSP); unusable afterwards."""
-        for item in (self._tangent_full, self._solid_tangent,
-                     self._residual_full, self.tangent,
-                     self._uncoupled_tangent, self.residual, self.height_column, self.force_row,
-                     self.x1, self.x2, self._near_nullspace):
+        self.linear_solver.destroy()
+        for item in (self.operator, self._coupling, self._residual_full, self.tangent,
+                     self.residual, self.height_column, self.force_row, self.x1, self.x2,
+                     self._near_nullspace):
             if item is not None:
                 item.destroy()
-        self.linear_solver.destroy()
+        self._assembler.destroy()

@@ -25,7 +25,7 @@ from dolfinx import fem
 from dolfinx import mesh as dolfinx_mesh
 from mpi4py import MPI
 from roughfriction.material import Material
-from roughfriction.solver.plasticity import J2Response, J2State, radial_return, von_mises
+from roughfriction.solver.plasticity import J2Response, PlasticHistory, radial_return, von_mises
 
 #: Quadrature degree of the 2 x 2 x 2 Gauss rule on hexahedra (basix: degree 2 and 3 give it).
 DEVIATORIC_DEGREE = 2
@@ -61,8 +61,9 @@ class Solid:
 
     Attributes
     ----------
-    committed, trial_state : J2State
-        Plastic history of the last converged step and of the last stress update.
+    committed, trial_state : PlasticHistory
+        Plastic history of the last converged step and of the last stress update (held at
+        the yielded points only).
     yielding : numpy.ndarray
         Gauss points on the yield surface in the last stress update, bool.
     """
@@ -95,7 +96,7 @@ class Solid:
         self._tensor_dofs = _point_dofs(tensor_space, self.num_cells, self.num_points)
         self._strain_deviator = fem.Expression(ufl.dev(strain(self.displacement)), points)
 
-        self.committed = J2State.virgin(self.num_cells * self.num_points)
+        self.committed = PlasticHistory.virgin(self.num_cells * self.num_points)
         self._return_map()  # of the zero displacement: the virgin state
 
         dx_dev = ufl.dx(metadata={"quadrature_degree": DEVIATORIC_DEGREE,
@@ -119,30 +120,45 @@ class Solid:
             fem.form(bulk * ufl.tr(strain(self.displacement)) * ufl.tr(strain(v)) * dx_vol),
         )
         # Tangent = elastic part (assembled once by the caller) + the plastic correction on the
-        # cells with a yielding point, compiled once and re-bound to those cells at each update
-        # (binding is ~1 ms; assembling the full tangent at every iteration cost more than the
-        # linear solve).
-        self.elastic_tangent_forms = (
-            fem.form(2.0 * shear * ufl.inner(ufl.dev(strain(du)), strain(v)) * dx_dev),
-            fem.form(bulk * ufl.tr(strain(du)) * ufl.tr(strain(v)) * dx_vol),
+        # cells with a yielding point (assembling the full tangent at every iteration cost more
+        # than the linear solve).
+        self._elastic_integrands = (
+            (2.0 * shear * ufl.inner(ufl.dev(strain(du)), strain(v)), dx_dev.metadata()),
+            (bulk * ufl.tr(strain(du)) * ufl.tr(strain(v)), dx_vol.metadata()),
         )
+        self.elastic_tangent_forms = (fem.form(self._elastic_integrands[0][0] * dx_dev),
+                                      fem.form(self._elastic_integrands[1][0] * dx_vol))
         self._mesh = mesh
-        self._correction = (2.0 * shear * (self.beta - 1.0) * ufl.dev(strain(du))
-                            - 2.0 * shear * self.gamma * ufl.inner(n, strain(du)) * n)
-        self._test_strain = strain(v)
-        self._dev_metadata = dx_dev.metadata()
+        correction = (2.0 * shear * (self.beta - 1.0) * ufl.dev(strain(du))
+                      - 2.0 * shear * self.gamma * ufl.inner(n, strain(du)) * n)
+        self._plastic_integrands = ((ufl.inner(correction, strain(v)), dx_dev.metadata()),)
+
+    def elastic_tangent_forms_on(self, cells: np.ndarray) -> tuple:
+        """The elastic tangent's forms (one per quadrature rule) over the owned ``cells``."""
+        return self._forms_on(self._elastic_integrands, cells)
+
+    def plastic_tangent_forms_on(self, cells: np.ndarray) -> tuple:
+        """The plastic correction of the consistent tangent,
+        (2 G (beta - 1) dev eps(du) - 2 G gamma (n : eps(du)) n, eps(v)), over the owned
+        ``cells`` (the tangent factors of the last stress update)."""
+        return self._forms_on(self._plastic_integrands, cells)
 
     def plastic_tangent_form(self):
-        """The plastic correction of the consistent tangent,
-        (2 G (beta - 1) dev eps(du) - 2 G gamma (n : eps(du)) n, eps(v)), over the owned cells with
-        a yielding Gauss point in the last stress update; None if there is none on any rank."""
+        """The plastic correction over the owned cells with a yielding Gauss point in the last
+        stress update; None if there is none on any rank."""
         if self.yielding_fraction() == 0.0:
             return None
-        cells = self.yielding_cells()
-        tags = dolfinx_mesh.meshtags(self._mesh, 3, cells, np.ones(len(cells), dtype=np.int32))
-        dx_plastic = ufl.Measure("dx", domain=self._mesh, subdomain_data=tags, subdomain_id=1,
-                                 metadata=self._dev_metadata)
-        return fem.form(ufl.inner(self._correction, self._test_strain) * dx_plastic)
+        return self.plastic_tangent_forms_on(self.yielding_cells())[0]
+
+    def _forms_on(self, integrands, cells: np.ndarray) -> tuple:
+        """Forms of (integrand, quadrature metadata) pairs over the owned ``cells`` (sorted),
+        compiled once and re-bound to the cells at each call (binding is ~1 ms)."""
+        tags = dolfinx_mesh.meshtags(self._mesh, 3, np.asarray(cells, dtype=np.int32),
+                                     np.ones(len(cells), dtype=np.int32))
+        return tuple(
+            fem.form(integrand * ufl.Measure("dx", domain=self._mesh, subdomain_data=tags,
+                                             subdomain_id=1, metadata=metadata))
+            for integrand, metadata in integrands)
 
     def yielding_cells(self) -> np.ndarray:
         """Owned cells with a yielding Gauss point in the last stress update (int32)."""
@@ -171,22 +187,19 @@ class Solid:
         """:meth:`update_stress` (also of the virgin state at construction, uncounted by
         profilers that wrap :meth:`update_stress`)."""
         committed, num_points = self.committed, self.num_points
-        plastic_strain = np.empty_like(committed.plastic_strain)
-        equivalent_plastic_strain = np.empty_like(committed.equivalent_plastic_strain)
-        yielding = np.empty(len(equivalent_plastic_strain), dtype=bool)
+        yielding = np.empty(committed.num_points, dtype=bool)
+        parts = [PlasticHistory.virgin(committed.num_points)]
         for first in range(0, self.num_cells, CELLS_AT_ONCE):
             cells = self._cells[first:first + CELLS_AT_ONCE]
             points = slice(first * num_points, (first + len(cells)) * num_points)
             strain_deviator = self._strain_deviator.eval(cells).reshape(-1, 3, 3)
-            response = radial_return(
-                strain_deviator, J2State(committed.plastic_strain[points],
-                                         committed.equivalent_plastic_strain[points]),
-                self.material, self.elastic)
+            response = radial_return(strain_deviator, committed.dense(points.start, points.stop),
+                                     self.material, self.elastic)
             self._write_quadrature(response, points)
-            plastic_strain[points] = response.state.plastic_strain
-            equivalent_plastic_strain[points] = response.state.equivalent_plastic_strain
+            parts.append(PlasticHistory.of_block(committed.num_points, points.start,
+                                                 response.state))
             yielding[points] = response.yielding
-        self.trial_state = J2State(plastic_strain, equivalent_plastic_strain)
+        self.trial_state = PlasticHistory.concatenate(parts)
         self.yielding = yielding
         self._yielding_cells = self._yielding_fraction = None
 
@@ -220,5 +233,5 @@ class Solid:
 
     def cell_plastic_strain(self) -> np.ndarray:
         """Equivalent plastic strain averaged over each owned cell's Gauss points [-]."""
-        p = self.trial_state.equivalent_plastic_strain
+        p = self.trial_state.dense().equivalent_plastic_strain
         return p.reshape(self.num_cells, self.num_points).mean(axis=1)

@@ -225,10 +225,8 @@ def memory_objects(equilibrium) -> dict:
 
 #: (name in the breakdown, attribute of ReducedSystem) of the matrices it may hold.
 MATRICES = (
-    ("full tangent K", "_tangent_full"),
-    ("reduced solid PtKP", "_solid_tangent"),
     ("reduced tangent", "tangent"),
-    ("reduced uncoupled tangent", "_uncoupled_tangent"),
+    ("contact coupling", "_coupling"),
 )
 
 
@@ -257,7 +255,8 @@ MARKS = (
     ("forms and spaces", "roughfriction.solver.solid", "Solid", "__init__"),
     ("reduction P", "roughfriction.solver.periodic", "PeriodicReduction", "__init__"),
     ("system set-up", "roughfriction.solver.reduced_system", "ReducedSystem", "__init__"),
-    ("reduced PtKP", "roughfriction.solver.reduced_system", "ReducedSystem", "_create_tangent"),
+    ("reduced elastic K", "roughfriction.solver.reduced_system", "ReducedSystem",
+     "_create_tangent"),
     ("first tangent", "roughfriction.solver.reduced_system", "ReducedSystem",
      "assemble_tangent"),
     ("preconditioner and first solve", "roughfriction.solver.linear", "LinearSolver", "_apply"),

@@ -3,7 +3,13 @@
 import numpy as np
 import pytest
 from roughfriction.material import Material
-from roughfriction.solver.plasticity import J2State, deviator, radial_return, von_mises
+from roughfriction.solver.plasticity import (
+    J2State,
+    PlasticHistory,
+    deviator,
+    radial_return,
+    von_mises,
+)
 
 MATERIAL = Material()
 
@@ -96,3 +102,28 @@ def test_consistent_tangent_matches_finite_differences():
                     - 2 * G * response.gamma[:, None, None]
                     * np.einsum("mij,ij->m", n, direction)[:, None, None] * n)
         np.testing.assert_allclose(numeric, analytic, rtol=1e-5, atol=1e-6 * 2 * G)
+
+
+def test_a_history_holds_the_yielded_points_and_gives_back_the_dense_state():
+    """Strained in blocks of 30 points (some yield, some stay elastic), the sparse history
+    holds exactly the points with p > 0 and gives back every block's dense state bit for bit,
+    also across two blocks."""
+    rng = np.random.default_rng(5)
+    strains = random_strains(rng, 90, 0.004)
+    strains[::3] *= 1e-3  # elastic points
+    dense = radial_return(strains, J2State.virgin(90), MATERIAL).state
+    assert 0 < np.count_nonzero(dense.equivalent_plastic_strain) < 90
+    history = PlasticHistory.concatenate(
+        [PlasticHistory.virgin(90)]
+        + [PlasticHistory.of_block(90, first, J2State(dense.plastic_strain[first:first + 30],
+                                                      dense.equivalent_plastic_strain[
+                                                          first:first + 30]))
+           for first in range(0, 90, 30)])
+    np.testing.assert_array_equal(history.points,
+                                  np.flatnonzero(dense.equivalent_plastic_strain > 0))
+    for first, last in ((0, 90), (30, 60), (17, 71)):
+        got = history.dense(first, last)
+        np.testing.assert_array_equal(got.plastic_strain, dense.plastic_strain[first:last])
+        np.testing.assert_array_equal(got.equivalent_plastic_strain,
+                                      dense.equivalent_plastic_strain[first:last])
+    assert not np.any(PlasticHistory.virgin(4).dense().plastic_strain)

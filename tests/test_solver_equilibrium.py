@@ -232,6 +232,11 @@ def test_a_non_symmetric_tangent_is_preconditioned_by_the_uncoupled_tangent(monk
     from scipy import sparse
 
     def scipy_matrix(matrix):
+        if matrix.getType() == PETSc.Mat.Type.PYTHON:  # a sum operator: its assembled sum
+            summed = matrix.getPythonContext().assembled()
+            result = scipy_matrix(summed)
+            summed.destroy()
+            return result
         return sparse.csr_matrix(matrix.getValuesCSR()[::-1], shape=matrix.getSize())
 
     checked = []
