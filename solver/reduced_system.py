@@ -307,10 +307,10 @@ class ReducedSystem:
     # --- solves ---------------------------------------------------------------------------
 
     def set_operator(self) -> None:
-        """Hand the operator (tangent and coupling) to the linear solver, with the tangent
-        without the coupling to build the preconditioner from."""
-        self.linear_solver.set_operator(self.operator, self.symmetric,
-                                        preconditioning=self.tangent)
+        """Hand the operator to the linear solver: the tangent while it is symmetric, else the
+        sum operator of it and the coupling, with the preconditioner built from the tangent."""
+        self.linear_solver.set_operator(self.tangent if self.symmetric else self.operator,
+                                        self.symmetric, preconditioning=self.tangent)
 
     def bordered_solve(self, force_error: float, tolerance: float, hold_height: bool
                        ) -> tuple[float, int]:

@@ -336,3 +336,41 @@ def test_gamg_aggregates_without_smoothing_the_prolongator(tmp_path):
     description = (tmp_path / "ksp.txt").read_text()
     assert "type: gamg" in description
     assert "Number smoothing steps 0" in description
+
+
+def test_an_operator_given_as_a_sum_is_solved_and_factored_as_its_sum():
+    """The sliding tangent as the system passes it: GMRES on the sum of the symmetric part and
+    the coupling (a python matrix, :func:`solver.reduced_system.sum_operator`), GAMG built
+    from the symmetric part; when GMRES fails (here: one iteration allowed) the LU factors are
+    of the assembled sum, which then solves the coupled system, and stay the same matrix for
+    the next operator."""
+    from roughfriction.solver.reduced_system import sum_operator
+
+    coupled = two_fields(64, 100.0)
+    coupling = coupled.duplicate(copy=True)
+    symmetric_part = two_fields(64, 0.0)
+    coupling.axpy(-1.0, symmetric_part, structure=PETSc.Mat.Structure.SUBSET_NONZERO_PATTERN)
+    uncoupled = coupled.duplicate(copy=True)  # the symmetric part, in the operator's pattern
+    uncoupled.axpy(-1.0, coupling, structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
+    operator = sum_operator([uncoupled, coupling])
+    rhs = coupled.createVecLeft()
+    rhs.setArray(np.sin(np.linspace(0.0, 40.0, rhs.getSize())))
+    solution, residual = rhs.duplicate(), rhs.duplicate()
+
+    def relative_residual() -> float:
+        coupled.mult(solution, residual)
+        residual.axpy(-1.0, rhs)
+        return residual.norm() / rhs.norm()
+
+    solver = LinearSolver(MPI.COMM_SELF, "iterative", relative_tolerance=1e-8)
+    solver.set_operator(operator, symmetric=False, preconditioning=symmetric_part)
+    solver.solve(rhs, solution)
+    assert solver.fallbacks == 0 and relative_residual() < 1e-8
+    solver.ksp.setTolerances(max_it=1)
+    solution.set(0.0)
+    solver.solve(rhs, solution)
+    assert solver.ksp.getPC().getType() == "lu" and relative_residual() < 1e-8
+    factored = solver.ksp.getOperators()[1]
+    assert factored.getType() != PETSc.Mat.Type.PYTHON
+    solver.set_operator(operator, symmetric=False, preconditioning=symmetric_part)
+    assert solver.ksp.getOperators()[1].handle == factored.handle
