@@ -143,13 +143,6 @@ class Solid:
         ``cells`` (the tangent factors of the last stress update)."""
         return self._forms_on(self._plastic_integrands, cells)
 
-    def plastic_tangent_form(self):
-        """The plastic correction over the owned cells with a yielding Gauss point in the last
-        stress update; None if there is none on any rank."""
-        if self.yielding_fraction() == 0.0:
-            return None
-        return self.plastic_tangent_forms_on(self.yielding_cells())[0]
-
     def _forms_on(self, integrands, cells: np.ndarray) -> tuple:
         """Forms of (integrand, quadrature metadata) pairs over the owned ``cells`` (sorted),
         compiled once and re-bound to the cells at each call (binding is ~1 ms)."""

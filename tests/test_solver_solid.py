@@ -38,7 +38,8 @@ def assemble(solid):
         fem_petsc.assemble_vector(residual, form)
     residual.ghostUpdate(PETSc.InsertMode.ADD_VALUES, PETSc.ScatterMode.REVERSE)
     tangent = fem_petsc.create_matrix(solid.elastic_tangent_forms[0])
-    plastic = solid.plastic_tangent_form()
+    plastic = (solid.plastic_tangent_forms_on(solid.yielding_cells())[0]
+               if solid.yielding_fraction() > 0.0 else None)
     for form in solid.elastic_tangent_forms + ((plastic,) if plastic else ()):
         fem_petsc.assemble_matrix(tangent, form)
     tangent.assemble()
