@@ -91,16 +91,18 @@ class ReducedAssembler:
         self._hangs = reduction.hanging[self._cell_nodes].any(axis=1)
         self._local_to_reduced = reduction.local_to_reduced()
 
-    def create_matrix(self, rows: np.ndarray, columns: np.ndarray) -> PETSc.Mat:
+    def create_matrix(self, rows: np.ndarray | None = None, columns: np.ndarray | None = None,
+                      cells: np.ndarray | None = None) -> PETSc.Mat:
         """An empty AIJ matrix of the reduced dofs (block size 3), preallocated with the
-        couplings of every cell plus the node pairs (``rows``, ``columns``: global reduced
-        nodes, -1 ignored; rows owned by this rank), with the local-to-reduced map that
-        :meth:`add` assembles through (collective)."""
+        couplings of the owned ``cells`` (all by default) plus the node pairs (``rows``,
+        ``columns``: global reduced nodes, -1 ignored; rows owned by this rank), with the
+        local-to-reduced map that :meth:`add` assembles through (collective)."""
         reduction = self.reduction
         num_nodes = reduction.num_reduced_global
-        keys = [pair_keys(rows, columns, num_nodes)]
-        for first in range(0, len(self._cell_nodes), PATTERN_CELLS_AT_ONCE):
-            nodes = self._cell_nodes[first:first + PATTERN_CELLS_AT_ONCE]
+        cell_nodes = self._cell_nodes if cells is None else self._cell_nodes[cells]
+        keys = [np.empty(0, np.int64) if rows is None else pair_keys(rows, columns, num_nodes)]
+        for first in range(0, len(cell_nodes), PATTERN_CELLS_AT_ONCE):
+            nodes = cell_nodes[first:first + PATTERN_CELLS_AT_ONCE]
             keys.append(cell_pair_keys(cell_masters(nodes, reduction.masters), num_nodes))
         offsets = np.array(self.comm.allgather(reduction.reduced_offset) + [num_nodes])
         keys = owned_keys(self.comm, np.unique(np.concatenate(keys)), offsets)
@@ -146,10 +148,17 @@ def reduced_rows(reduction: PeriodicReduction, forms) -> tuple:
     full.assemble()
     reduced = reduction.reduce_matrix(full)
     full.destroy()
-    row_pointer, columns, values = reduced.getValuesCSR()
-    rows = np.flatnonzero(np.diff(row_pointer))
-    first = reduced.getOwnershipRange()[0]
+    rows = compressed_rows(reduced)
     reduced.destroy()
+    return rows
+
+
+def compressed_rows(matrix: PETSc.Mat) -> tuple:
+    """The nonempty owned rows of an assembled ``matrix``: row pointer, columns, values and
+    global rows, as :func:`add_rows` takes them."""
+    row_pointer, columns, values = matrix.getValuesCSR()
+    rows = np.flatnonzero(np.diff(row_pointer))
+    first = matrix.getOwnershipRange()[0]
     return (np.append(row_pointer[rows], row_pointer[-1]), columns, values,
             (rows + first).astype(PETSc.IntType))
 

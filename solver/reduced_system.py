@@ -22,7 +22,7 @@ from roughfriction.case import SolverOptions
 from roughfriction.solver.contact import ContactResponse, RigidFlat
 from roughfriction.solver.linear import LinearSolver
 from roughfriction.solver.periodic import PeriodicReduction
-from roughfriction.solver.reduced_assembly import ReducedAssembler, add_rows, reduced_rows
+from roughfriction.solver.reduced_assembly import ReducedAssembler, add_rows, compressed_rows
 from roughfriction.solver.solid import Solid
 
 #: Above this fraction of the cells yielding, the solid tangent is assembled afresh on the whole
@@ -297,10 +297,14 @@ class ReducedSystem:
             part for part in (self.tangent, self._coupling) if part is not None]
 
     def _add_plastic_correction(self) -> tuple:
-        """Add P^T K_plastic P to the tangent, assembled and reduced on the couplings of the
-        yielding cells alone, row by row; return its rows as :func:`add_rows` takes them."""
-        added = reduced_rows(self.reduction,
-                             self.solid.plastic_tangent_forms_on(self.solid.yielding_cells()))
+        """Add P^T K_plastic P to the tangent row by row, assembled into a reduced matrix of
+        the yielding cells' couplings alone; return its rows as :func:`add_rows` takes them."""
+        cells = self.solid.yielding_cells()
+        correction = self._assembler.create_matrix(cells=cells)
+        self._assembler.add(correction, self.solid.plastic_tangent_forms_on, cells)
+        correction.assemble()
+        added = compressed_rows(correction)
+        correction.destroy()
         add_rows(self.tangent, *added)
         return added
 
