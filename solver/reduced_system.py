@@ -25,11 +25,6 @@ from roughfriction.solver.periodic import PeriodicReduction
 from roughfriction.solver.reduced_assembly import ReducedAssembler, add_rows, compressed_rows
 from roughfriction.solver.solid import Solid
 
-#: Above this fraction of the cells yielding, the solid tangent is assembled afresh on the whole
-#: mesh, below it the plastic correction is reduced on the yielding cells' couplings alone and
-#: added to the kept elastic part (whose cost grows with them; measured crossover 15-20 % at
-#: N = 64 when the whole mesh went through MatPtAP) [-].
-WHOLE_MESH_YIELDING = 0.15
 #: The tightest relative Krylov tolerance asked of a linear solve [-].
 SMALLEST_TOLERANCE = 1e-10
 
@@ -118,7 +113,7 @@ class ReducedSystem:
         self._residual_full = fem_petsc.create_vector(solid.residual_forms[0])
         self._assembler = ReducedAssembler(solid.V, reduction)
         self.tangent = None  # P^T K P + contact, created at the first assembly
-        self._additions = None  # what the tangent holds beyond P^T K_elastic P (None: unknown)
+        self._additions = None  # what the tangent holds beyond P^T K_elastic P
         self._coupling = None  # dt/dp of the coupled nodes' rows, while not symmetric
         self.operator = None  # tangent (+ coupling): a SumOperator, created with the tangent
         self.symmetric = True
@@ -193,21 +188,14 @@ class ReducedSystem:
         The tangent matrix is created once with its whole pattern and the reduced elastic part
         (:mod:`solver.reduced_assembly`: no full-mesh matrix). Each assembly then takes back
         what the last one added (:class:`TangentAdditions`) and adds the plastic correction,
-        assembled and reduced on the couplings of the yielding cells alone, row by row; while
-        many cells yield (``WHOLE_MESH_YIELDING``) the solid tangent is assembled afresh on the
-        whole mesh instead. The blocks of the nodes that touch are added row by row.
+        assembled and reduced on the couplings of the yielding cells alone, and the blocks of
+        the nodes that touch, row by row.
         """
         if self.tangent is None:
             self._create_tangent()
-        yielding = self.solid.yielding_fraction()
-        if yielding > WHOLE_MESH_YIELDING:
-            self.tangent.zeroEntries()
-            self._add_solid_tangent(plastic=True)
-            self._additions = None
-        else:
-            self._restore_elastic_part()
-            if yielding > 0.0:
-                self._additions.plastic = self._add_plastic_correction()
+        self._restore_elastic_part()
+        if self.solid.yielding_fraction() > 0.0:
+            self._additions.plastic = self._add_plastic_correction()
         self.symmetric = self.comm.allreduce(contact.symmetric, op=MPI.LAND)
         self.coupled = self.comm.allreduce(contact.coupled, op=MPI.LOR)
         blocks = [(*contact.node_blocks, 1.0)]
@@ -215,8 +203,7 @@ class ReducedSystem:
             blocks.append((*contact.coupling_blocks, -1.0))
         for nodes, values, scale in blocks:
             self._add_node_blocks(self.tangent, nodes, values, scale)
-        if self._additions is not None:
-            self._additions.node_blocks = blocks
+        self._additions.node_blocks = blocks
         self.tangent.assemble()
         self._set_coupling(None if self.symmetric else contact.coupling_blocks)
 
@@ -232,34 +219,21 @@ class ReducedSystem:
             raise RuntimeError("a surface node's reduced rows are owned by another rank")
         self._add_node_blocks(self.tangent, self.flat.owned_grid,
                               np.zeros((len(rows), width, 3, 3)))
-        self._add_solid_tangent(plastic=False)
+        self._assembler.add(self.tangent, self.solid.elastic_tangent_forms_on)
         self.tangent.assemble()
         self.operator = sum_operator([self.tangent])
         self._additions = TangentAdditions()
         if self._near_nullspace is not None:
             self.tangent.setNearNullSpace(self._near_nullspace)
 
-    def _add_solid_tangent(self, plastic: bool) -> None:
-        """Add P^T K_elastic P, and P^T K_plastic P of the yielding cells if ``plastic``, to
-        the tangent, assembled on the whole mesh (unassembled)."""
-        self._assembler.add(self.tangent, self.solid.elastic_tangent_forms_on)
-        if plastic:
-            self._assembler.add(self.tangent, self.solid.plastic_tangent_forms_on,
-                                self.solid.yielding_cells())
-
     def _restore_elastic_part(self) -> None:
-        """Bring the tangent back to P^T K_elastic P: subtract the last additions, or after a
-        whole-mesh tangent, assemble the elastic part afresh."""
-        if self._additions is not None:
-            if self._additions.plastic is not None:
-                add_rows(self.tangent, *self._additions.plastic, scale=-1.0)
-            for nodes, values, scale in self._additions.node_blocks:
-                self._add_node_blocks(self.tangent, nodes, values, -scale)
-            self.tangent.assemble()
-        else:
-            self.tangent.zeroEntries()
-            self._add_solid_tangent(plastic=False)
-            self.tangent.assemble()
+        """Bring the tangent back to P^T K_elastic P: subtract the last additions."""
+        additions = self._additions
+        if additions.plastic is not None:
+            add_rows(self.tangent, *additions.plastic, scale=-1.0)
+        for nodes, values, scale in additions.node_blocks:
+            self._add_node_blocks(self.tangent, nodes, values, -scale)
+        self.tangent.assemble()
         self._additions = TangentAdditions()
 
     def _add_node_blocks(self, matrix: PETSc.Mat, nodes: np.ndarray, blocks: np.ndarray,
