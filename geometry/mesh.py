@@ -167,10 +167,11 @@ def mesh_size(n: int, options: MeshOptions) -> tuple[int, int]:
 #: Peak memory of a run, summed over ranks: MEMORY_PER_RANK_GB per rank, plus
 #: CONTACT_MEMORY_PER_NODE_GB per surface grid node on every rank (each rank evaluates the whole
 #: surface's contact), plus MEMORY_PER_DOF_GB per reduced dof [GB] (an upper fit of
-#: ``make bench-fem``, N = 32-128 on 2 ranks, and of the contact arrays alone to N = 512).
+#: ``make bench-fem``, N = 32-128 on 2 ranks, whose high-load rows need the most per dof, of the
+#: 2x mesh of a 128^2 surface, and of the contact arrays alone to N = 512).
 MEMORY_PER_RANK_GB = 0.2
 CONTACT_MEMORY_PER_NODE_GB = 6.5e-6
-MEMORY_PER_DOF_GB = 12e-6
+MEMORY_PER_DOF_GB = 7e-6
 
 
 def estimated_memory_gb(n: int, options: MeshOptions, ranks: int) -> float:

@@ -237,6 +237,6 @@ def test_a_run_too_large_for_the_available_memory_is_refused(monkeypatch):
     from roughfriction.solver import run as run_module
 
     monkeypatch.setattr(run_module, "available_memory_gb", lambda comm: 8.0)
-    check_memory(256, MeshOptions(), MPI.COMM_SELF)  # ~7 GB
-    with pytest.raises(InputError, match=r"N = 512: the FEM run needs about 2\d\.\d GB"):
+    check_memory(256, MeshOptions(), MPI.COMM_SELF)  # ~4.3 GB
+    with pytest.raises(InputError, match=r"N = 512: the FEM run needs about 1\d\.\d GB"):
         check_memory(512, MeshOptions(), MPI.COMM_SELF)
