@@ -12,6 +12,7 @@ from roughfriction.solver.reduced_assembly import cell_masters, pair_keys
 pytest.importorskip("dolfinx")
 from dolfinx.fem import petsc as fem_petsc  # noqa: E402
 from mpi4py import MPI  # noqa: E402
+from petsc4py import PETSc  # noqa: E402
 from roughfriction.solver import reduced_assembly  # noqa: E402
 from roughfriction.solver.block import block_layout, build_block  # noqa: E402
 from roughfriction.solver.periodic import PeriodicReduction  # noqa: E402
@@ -47,8 +48,9 @@ def _case(adaptive: bool) -> FemCase:
         1, cells_at_nodes(contact, 1))))
 
 
-def _assembled_both_ways(case: FemCase, comm) -> tuple:
-    """(reduced assembly, MatPtAP of the whole mesh's K) of the elastic tangent."""
+def _assembled_both_ways(case: FemCase, comm, stride: int = 1) -> tuple:
+    """(reduced assembly, MatPtAP of the full-dof K) of the elastic tangent over every
+    ``stride``-th owned cell (all by default; else a matrix of those cells' couplings alone)."""
     surface = case.surface
     layout = block_layout(surface.n, surface.spacing, case.mesh)
     block = build_block(surface.heights, surface.spacing, case.mesh, comm)
@@ -56,15 +58,23 @@ def _assembled_both_ways(case: FemCase, comm) -> tuple:
     reduction = PeriodicReduction(solid.V, block, layout and layout.cells)
     assert comm.allreduce(int(reduction.hanging.sum()), op=MPI.SUM) > 0
     assembler = ReducedAssembler(solid.V, reduction)
-    direct = assembler.create_matrix(np.empty(0, int), np.empty(0, int))
-    assembler.add(direct, solid.elastic_tangent_forms_on)
+    cells = np.arange(0, solid.num_cells, stride, dtype=np.int32)
+    if stride == 1:
+        direct = assembler.create_matrix(np.empty(0, int), np.empty(0, int))
+        assembler.add(direct, solid.elastic_tangent_forms_on)
+    else:
+        direct = assembler.create_matrix(cells=cells)
+        assembler.add(direct, solid.elastic_tangent_forms_on, cells)
+    allocated = direct.getInfo(PETSc.Mat.InfoType.LOCAL)["nz_allocated"]
     direct.assemble()
-    full = fem_petsc.create_matrix(solid.elastic_tangent_forms[0])
-    for form in solid.elastic_tangent_forms:
+    forms = solid.elastic_tangent_forms_on(cells)
+    full = fem_petsc.create_matrix(forms[0])
+    for form in forms:
         fem_petsc.assemble_matrix(full, form)
     full.assemble()
     reference = reduction.reduce_matrix(full)
     full.destroy()
+    assert allocated == reference.getInfo(PETSc.Mat.InfoType.LOCAL)["nz_used"]  # exact pattern
     return direct, reference
 
 
@@ -79,12 +89,15 @@ def _check_equal(direct, reference) -> None:
 
 @pytest.mark.fem
 @pytest.mark.parametrize("adaptive", [False, True])
-def test_the_reduced_assembly_is_p_transpose_k_p(monkeypatch, adaptive):
+@pytest.mark.parametrize("stride", [1, 3])
+def test_the_reduced_assembly_is_p_transpose_k_p(monkeypatch, adaptive, stride):
     """Assembled through the local-to-reduced map, with the hanging cells reduced 16 at a
-    time, the elastic tangent has the nonzeros and values of P^T K P of the whole mesh."""
+    time, the elastic tangent has the nonzeros and values of P^T K P of the whole mesh; over
+    every third cell, in a matrix of their couplings alone, those of P^T K P of those cells
+    (as the plastic correction of the yielding cells is assembled)."""
     monkeypatch.setattr(reduced_assembly, "HANGING_CELLS_AT_ONCE", 16)
     monkeypatch.setattr(reduced_assembly, "PATTERN_CELLS_AT_ONCE", 16)
-    direct, reference = _assembled_both_ways(_case(adaptive), MPI.COMM_SELF)
+    direct, reference = _assembled_both_ways(_case(adaptive), MPI.COMM_SELF, stride)
     _check_equal(direct, reference)
 
 
