@@ -1,6 +1,6 @@
 """Calibration of the discretisation error estimate of mu_s against a fine uniform reference.
 
-    mpirun -n 2 python -m roughfriction.studies.calibration docs/bench/calibration.csv
+    mpirun -n 2 python -m roughfriction.studies.calibration docs/bench/calibration.csv [N]
 
 On small windows of i.i.d. (G1, G5, G9) and self-affine (2L, 8L) surfaces, each case is run on
 uniform meshes 1x, 2x, 4x and the reference 8x (``studies.refinement.level_case``; both loads
@@ -154,12 +154,14 @@ def run_calibration(path: Path, comm, surfaces=CALIBRATION_SURFACES, n: int = CA
 
 def main(argv: list[str] | None = None) -> int:
     """Run the calibration and write the table to the path given (default
-    docs/bench/calibration.csv); print the pass counts on rank 0."""
+    docs/bench/calibration.csv), on windows of the size given second (default
+    :data:`CALIBRATION_N`); print the pass counts on rank 0."""
     from mpi4py import MPI
 
     argv = sys.argv[1:] if argv is None else argv
     path = Path(argv[0] if argv else "docs/bench/calibration.csv")
-    rows = run_calibration(path, MPI.COMM_WORLD)
+    n = int(argv[1]) if len(argv) > 1 else CALIBRATION_N
+    rows = run_calibration(path, MPI.COMM_WORLD, n=n)
     if MPI.COMM_WORLD.rank == 0:
         for used in (2, 3):
             chosen = [row for row in rows if row["levels_used"] == used]

@@ -242,11 +242,12 @@ def profile_table(bench: Path) -> str:
                            "Krylov its per solve"], table)
 
 
-def calibration_table(bench: Path) -> str:
+def calibration_table(bench: Path, name: str = "calibration.csv") -> str:
     """`make bench-calibration`: the --tol error estimate of mu_s against an 8x uniform
-    reference, per window, load and number of levels (calibration.csv)."""
+    reference, per window, load and number of levels (``name``: calibration.csv, or
+    calibration_n8.csv of the 8 x 8 windows)."""
     table = []
-    for row in read_rows(bench / "calibration.csv"):
+    for row in read_rows(bench / name):
         ladder = " / ".join(f"{float(row[key]):.4f}" for key in ("mu_1x", "mu_2x", "mu_4x"))
         order = f"{float(row['order']):.2g}" + (" (observed)" if row["order_observed"] == "True"
                                                 else " (assumed)")
@@ -310,6 +311,7 @@ TABLES: dict[str, Callable[[Path], str]] = {
     "stress.csv": stress_table,
     "figure_scenes.csv": scenes_table,
     "calibration.csv": calibration_table,
+    "calibration_n8.csv": partial(calibration_table, name="calibration_n8.csv"),
     "memory.csv": memory_table,
     "zone_cover.csv": zone_cover_table,
     "profile_*.json": profile_table,

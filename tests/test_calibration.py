@@ -6,6 +6,7 @@ import json
 import h5py
 import pytest
 from roughfriction.scripts.cli import main
+from roughfriction.studies import calibration
 from roughfriction.studies.calibration import calibration_rows, check_estimate
 from roughfriction.studies.refinement import richardson
 
@@ -19,6 +20,16 @@ def test_an_estimate_is_checked_for_cover_and_sharpness():
     assert check_estimate(0.20, 0.0155, 0.205).sharp  # <= 3 x 0.005 + 0.5 % of 0.2
     assert not check_estimate(0.20, 0.0165, 0.205).sharp
     assert check_estimate(0.20, 0.001, 0.20).sharp  # the 0.5 % floor
+
+
+@pytest.mark.parametrize("argv, n", [(["out.csv"], calibration.CALIBRATION_N),
+                                     (["out.csv", "8"], 8)])
+def test_the_calibration_runs_on_the_window_size_given(monkeypatch, argv, n):
+    called = {}
+    monkeypatch.setattr(calibration, "run_calibration",
+                        lambda path, comm, n: called.update(path=str(path), n=n) or [])
+    assert calibration.main(argv) == 0
+    assert called == {"path": "out.csv", "n": n}
 
 
 def test_calibration_rows_check_each_estimate_against_the_finest_level():
