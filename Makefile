@@ -139,11 +139,10 @@ bench-profile: setup
 # The error estimate of --tol against an 8x uniform reference on 4 x 4 windows of G1, G5, G9,
 # 2L, 8L at F* = 0.155 and 0.93 (studies/calibration.py; ~20 min on 2 loaded cores);
 # `make bench-calibration CALIBRATION_N=8` on 8 x 8 windows (calibration_n8.csv, ~1.5 h).
-CALIBRATION_N ?= 4
-CALIBRATION_CSV = docs/bench/calibration$(if $(filter-out 4,$(CALIBRATION_N)),_n$(CALIBRATION_N)).csv
 bench-calibration: setup
 	@mkdir -p docs/bench
-	@$(MPIRUN) $(PY) -m roughfriction.studies.calibration $(CALIBRATION_CSV) $(CALIBRATION_N)
+	@$(MPIRUN) $(PY) -m roughfriction.studies.calibration \
+	  $(if $(CALIBRATION_N),docs/bench/calibration_n$(CALIBRATION_N).csv $(CALIBRATION_N),docs/bench/calibration.csv)
 
 bench: bench-multiscale bench-fem bench-path bench-error
 
