@@ -40,10 +40,10 @@ last converged step keep the uncapped stick law (tangential predictor). A point 
 the last converged step carries no shear in the step in which it touches and sticks where it is
 at its end. Frictionless steps (the preload) have t = 0, so sliding starts from full stick.
 
-Every rank evaluates all nodes and faces from the gathered surface displacements (cheap
-sparse NumPy over the faces' points, identical on every rank; node arrays span the N^2 grid
-points, zero where no free node is) and adds the rows of the surface
-nodes it owns: the contact state is the same on any number of ranks.
+Each rank evaluates the faces within two rings of the surface nodes it owns (``local_faces``)
+from the gathered surface displacements (sparse NumPy over those faces' points; node arrays
+span the N^2 grid points) and adds the rows of its owned nodes, whose state it computes from
+the same numbers as a single rank would. Integrals count each face on one rank.
 
 Signs: R = f_int - f_ext. The flat pushes with -p e_z and drags with t, so node b's residual
 gains f_b, and dR_z/dh = -eps_N sum (in contact).
@@ -56,6 +56,7 @@ from dataclasses import dataclass
 from functools import cache, cached_property
 
 import numpy as np
+from mpi4py import MPI
 from roughfriction.geometry.adaptive import CellSizes, hanging_masters
 from roughfriction.solver.contact_law import ContactLaw
 from scipy import sparse
@@ -106,9 +107,10 @@ class SurfaceFaces:
     weights : numpy.ndarray
         Their weights, shape (F, 4, 4) (each corner's sum to 1; 0 in unused slots).
     cell_face : numpy.ndarray
-        The face covering each finest cell (i, j), shape (N, N).
+        The face covering each finest cell (i, j), shape (N, N): its index among all faces of
+        the surface (also in a :meth:`subset`).
     uniform : bool
-        All faces 1 spacing wide (no hanging corners).
+        All faces of the surface 1 spacing wide (no hanging corners).
     """
 
     first: np.ndarray
@@ -119,8 +121,53 @@ class SurfaceFaces:
     uniform: bool
 
     def on_grid(self, face_values: np.ndarray) -> np.ndarray:
-        """Per-face values as an N x N map of the finest cells, each cell its face's value."""
+        """Values of all faces of the surface as an N x N map of the finest cells, each cell its
+        face's value."""
         return np.asarray(face_values)[self.cell_face]
+
+    def subset(self, faces: np.ndarray) -> SurfaceFaces:
+        """The faces with these indices (ascending), the same surface's cell map."""
+        return SurfaceFaces(self.first[faces], self.width[faces], self.masters[faces],
+                            self.weights[faces], self.cell_face, self.uniform)
+
+
+def local_faces(faces: SurfaceFaces, owner: np.ndarray, rank: int
+                ) -> tuple[np.ndarray, np.ndarray]:
+    """The faces a rank evaluates for the rows of the surface nodes it owns, and those it counts.
+
+    A node's force involves the points of its faces, whose pressures are those of their
+    corners' nodes, whose weighted gaps involve the points of those nodes' faces: the faces
+    within two rings of the owned nodes. Each face is counted (integrals, maps) by the rank
+    that owns its lowest free node.
+
+    Parameters
+    ----------
+    faces : SurfaceFaces
+        All faces of the surface.
+    owner : numpy.ndarray
+        Rank owning each free grid node i N + j, shape (N^2,).
+    rank : int
+        This rank.
+
+    Returns
+    -------
+    local : numpy.ndarray
+        Indices of the faces to evaluate, ascending.
+    counted : numpy.ndarray
+        Of those, the ones this rank counts (bool).
+    """
+    used = faces.weights > 0.0
+    masters = np.where(used, faces.masters, len(owner))  # N^2: no node
+
+    def touching(nodes: np.ndarray) -> np.ndarray:  # faces with a free node in the mask
+        return np.any(np.append(nodes, False)[masters], axis=(1, 2))
+
+    ring = np.zeros(len(owner), dtype=bool)
+    near = masters[touching(owner == rank)]
+    ring[near[near < len(owner)]] = True
+    local = np.flatnonzero(touching(ring))
+    lowest = masters[local].min(axis=(1, 2))
+    return local, owner[lowest] == rank
 
 
 def surface_faces(n: int, cells: CellSizes | None = None) -> SurfaceFaces:
@@ -144,18 +191,19 @@ def surface_faces(n: int, cells: CellSizes | None = None) -> SurfaceFaces:
                         weights.reshape(-1, 4, 4), cell_face, bool(np.all(width == 1)))
 
 
-def neighbour_stencil(n: int) -> np.ndarray:
-    """Grid nodes of the 25 couplings (``NEIGHBOURS``) of every node of the uniform periodic
-    N x N grid, shape (N^2, 25)."""
-    i, j = np.divmod(np.arange(n * n), n)
+def neighbour_stencil(n: int, nodes: np.ndarray) -> np.ndarray:
+    """Grid nodes of the 25 couplings (``NEIGHBOURS``) of the grid ``nodes`` i N + j of the
+    uniform periodic N x N grid, shape (len(nodes), 25)."""
+    i, j = np.divmod(np.asarray(nodes), n)
     return ((i[:, None] + NEIGHBOURS[:, 0]) % n) * n + (j[:, None] + NEIGHBOURS[:, 1]) % n
 
 
-def coupling_pattern(to_nodes, point_pressure, gap_gradient, interpolation) -> np.ndarray:
-    """Grid nodes b that the contact tangent couples each node a to (through a shared point,
-    its pressure or its gap), padded with -1, shape (N^2, widest row)."""
-    absolute = [abs(sparse.csr_matrix(m)) for m in (to_nodes, point_pressure, gap_gradient,
-                                                  interpolation)]
+def coupling_pattern(nodes, to_nodes, point_pressure, gap_gradient, interpolation
+                     ) -> np.ndarray:
+    """Grid nodes b that the contact tangent couples each of the grid ``nodes`` a to (through a
+    shared point, its pressure or its gap), padded with -1, shape (len(nodes), widest row)."""
+    absolute = [abs(sparse.csr_matrix(m)) for m in (to_nodes[nodes], point_pressure,
+                                                  gap_gradient, interpolation)]
     pattern = (absolute[0] @ (absolute[1] @ absolute[2] + absolute[3])).tocsr()
     pattern.eliminate_zeros()
     counts = np.diff(pattern.indptr)
@@ -281,6 +329,11 @@ class RigidFlat:
     """The contact surface (faces on the N x N grid): its quadrature, the gathers of the surface
     nodes over the ranks, the contact law at its points and their history.
 
+    Each rank evaluates the faces near the surface nodes it owns (:func:`local_faces`): point
+    arrays hold those faces' points, node arrays span the N^2 grid nodes and are exact for the
+    owned nodes (and their neighbours), zero where no local face is. Integrals, counts and maps
+    are over all ranks (collective calls).
+
     Parameters
     ----------
     comm : mpi4py.MPI.Comm
@@ -332,7 +385,20 @@ class RigidFlat:
             raise RuntimeError(f"surface nodes are not the {len(needed)} free nodes of the "
                                f"{n} x {n} surface grid, once each")
         self.node_heights = self.gather_nodes(heights)
-        self._build_quadrature(faces, points_per_side)
+        self.surface_node = self.gather_nodes(np.ones(len(nodes), dtype=bool))  # free, (N^2,)
+        self.num_faces = len(faces.width)
+        local, counted = local_faces(faces, self.gather_nodes(np.full(len(nodes), comm.rank)),
+                                     comm.rank)
+        self.face_ids = local  # this rank's faces among all of the surface's
+        self._build_quadrature(faces.subset(local), points_per_side)
+        self._counted_area = self.point_area * np.repeat(counted, len(self.weight))  # [m^2]
+        self.face_counted = counted
+        self.stencil_nodes = np.sort(self.owned_grid)  # rows of ``neighbours``
+        self.neighbours = (neighbour_stencil(n, self.stencil_nodes) if faces.uniform
+                           else coupling_pattern(self.stencil_nodes, self._to_nodes,
+                                                 self._point_pressure, self._gap_gradient,
+                                                 self._interpolation))
+        self._first_neighbour = first_occurrences(self.neighbours)
         num_points = len(self.point_weight)
         self.committed = ContactHistory(np.zeros((num_points, 2)),
                                         np.zeros(num_points, dtype=bool),
@@ -340,7 +406,7 @@ class RigidFlat:
         self.multiplier = self.committed.multiplier
 
     def _build_quadrature(self, faces: SurfaceFaces, points_per_side: int) -> None:
-        """The points of every face and the sparse maps between points and grid nodes."""
+        """The points of the ``faces`` and the sparse maps between points and grid nodes."""
         n = self.grid_size
         self.shape, self.weight = face_quadrature(points_per_side)
         q, num_faces = len(self.weight), len(faces.width)
@@ -377,10 +443,6 @@ class RigidFlat:
             self.node_free, self.node_area, 1.0), 0.0)) @ area).tocsr()
         self._point_pressure = (sparse.diags(1.0 / self.point_area) @ area.T).tocsr()
         self._gap_gradient = (self._tributary @ self._interpolation).tocsr()
-        self.neighbours = (neighbour_stencil(n) if faces.uniform
-                           else coupling_pattern(self._to_nodes, self._point_pressure,
-                                                 self._gap_gradient, self._interpolation))
-        self._first_neighbour = first_occurrences(self.neighbours)
 
     # --- the surface grid ---------------------------------------------------------------------
 
@@ -500,26 +562,31 @@ class RigidFlat:
         return node_stiffness
 
     def _node_tangent(self, blocks: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """The nodes a with a nonzero row in any of the 3 x 3 component matrices ``blocks``
-        (N^2 x N^2 sparse, per unit area [Pa/m]; None for zero) and their K_ab [N/m] with the
-        25 neighbours b (``NEIGHBOURS``), shape (m, 25, 3, 3)."""
+        """The owned nodes a with a nonzero row in any of the 3 x 3 component matrices
+        ``blocks`` (N^2 x N^2 sparse, per unit area [Pa/m]; None for zero) and their K_ab [N/m]
+        with their neighbours b (:attr:`neighbours`), shape (m, width, 3, 3)."""
         matrices = {}
-        stiff = np.zeros(self.grid_size**2, dtype=bool)
+        stiff = np.zeros(len(self.stencil_nodes), dtype=bool)
         for (i, j), matrix in np.ndenumerate(blocks):
             if matrix is not None:
-                matrix = sparse.csr_matrix(matrix)
+                matrix = sparse.csr_matrix(matrix)[self.stencil_nodes]
                 matrix.eliminate_zeros()
                 stiff |= np.diff(matrix.indptr) > 0
                 matrices[i, j] = matrix
-        nodes = np.flatnonzero(stiff)
+        rows = np.flatnonzero(stiff)
         width = self.neighbours.shape[1]
-        rows = np.repeat(nodes, width)
-        columns = np.maximum(self.neighbours[nodes], 0).ravel()
-        tangent = np.zeros((3, 3, len(nodes), width))  # component-major: contiguous
+        columns = np.maximum(self.neighbours[rows], 0).ravel()
+        tangent = np.zeros((3, 3, len(rows), width))  # component-major: contiguous
         for (i, j), matrix in matrices.items():
-            tangent[i, j] = np.asarray(matrix[rows, columns]).reshape(len(nodes), -1)
-        tangent *= self._first_neighbour[nodes]
-        return nodes, tangent.transpose(2, 3, 0, 1)
+            if len(rows):  # (scipy gives a 1 x 0 matrix for no index)
+                tangent[i, j] = np.asarray(matrix[np.repeat(rows, width), columns]).reshape(
+                    len(rows), width)
+        tangent *= self._first_neighbour[rows]
+        return self.stencil_nodes[rows], tangent.transpose(2, 3, 0, 1)
+
+    def neighbours_of(self, nodes: np.ndarray) -> np.ndarray:
+        """:attr:`neighbours` of owned grid nodes (the columns of their tangent rows)."""
+        return self.neighbours[np.searchsorted(self.stencil_nodes, nodes)]
 
     # --- history --------------------------------------------------------------------------------
 
@@ -544,12 +611,15 @@ class RigidFlat:
     # --- measures -------------------------------------------------------------------------------
 
     def penetration(self, response: ContactResponse) -> float:
-        """Deepest penetration -g~_a of a node in contact [m]."""
-        return float(np.max(-response.node_gap[response.node_active], initial=0.0))
+        """Deepest penetration -g~_a of a node in contact [m], over all ranks."""
+        owned = self.owned_grid
+        deepest = np.max(-response.node_gap[owned][response.node_active[owned]], initial=0.0)
+        return float(self.comm.allreduce(deepest, op=MPI.MAX))
 
     def integrate(self, point_values: np.ndarray) -> float:
-        """sum_q A_f w_q v_q over all faces: the integral of a point density [x m^2]."""
-        return float(self.point_area @ point_values)
+        """sum_q A_f w_q v_q over all faces of all ranks: the integral of a point density
+        [x m^2]."""
+        return float(self.comm.allreduce(float(self._counted_area @ point_values)))
 
     def normal_force(self, response: ContactResponse) -> float:
         """F_n = integral of p over the surface [N]."""
@@ -561,11 +631,11 @@ class RigidFlat:
 
     def area_ratio(self, mask: np.ndarray) -> float:
         """Fraction of the nominal area whose points satisfy ``mask`` (e.g. p > 0) [-]."""
-        return float(self.point_area @ mask) / float(self.face_area.sum())
+        return self.integrate(mask) / (self.grid_size * self.spacing) ** 2
 
     def count(self, mask: np.ndarray) -> int:
-        """Number of points (or nodes) where ``mask`` holds [-]."""
-        return int(np.count_nonzero(mask))
+        """Number of surface nodes (over all ranks) where the node ``mask`` holds [-]."""
+        return int(self.comm.allreduce(np.count_nonzero(mask[self.owned_grid])))
 
     def node_maps(self, response: ContactResponse) -> dict:
         """N x N nodal maps ([i, j] at x = i h, y = j h on the finest grid) of a contact state.
@@ -578,19 +648,25 @@ class RigidFlat:
         surface node (inside a coarse face, or where it hangs) are out of contact with zero
         forces and no gap (NaN).
         """
-        n = self.grid_size
+        n, owned = self.grid_size, self.owned_grid
         touching = self._tributary @ response.in_contact.astype(float)
         sticking = self._tributary @ (response.in_contact & ~response.slipping).astype(float)
-        area = np.where(self.node_free, self.node_area, 1.0)
+        area = self.node_area[owned]
+        nodal = self.gather_nodes(np.column_stack([
+            touching[owned], sticking[owned], response.node_force[owned, 2] / area,
+            -response.node_force[owned, 0] / area, response.node_gap[owned]]))
         fraction = (self.point_weight * response.in_contact).reshape(len(self.face_area), -1).sum(
             axis=1)
+        face_fraction = np.zeros(self.num_faces)
+        face_fraction[self.face_ids[self.face_counted]] = fraction[self.face_counted]
+        touching, sticking = nodal[:, 0] > 0.0, nodal[:, 1] > 0.0
         return {
-            "contact": (touching > 0.0).reshape(n, n),
-            "slip": ((touching > 0.0) & (sticking == 0.0)).reshape(n, n),
-            "pressure": (response.node_force[:, 2] / area).reshape(n, n),
-            "shear_x": (-response.node_force[:, 0] / area).reshape(n, n),
-            "contact_fraction": self.faces.on_grid(fraction),
-            "gap": np.where(self.node_free, response.node_gap, np.nan).reshape(n, n),
+            "contact": touching.reshape(n, n),
+            "slip": (touching & ~sticking).reshape(n, n),
+            "pressure": nodal[:, 2].reshape(n, n),
+            "shear_x": nodal[:, 3].reshape(n, n),
+            "contact_fraction": self.faces.on_grid(self.comm.allreduce(face_fraction)),
+            "gap": np.where(self.surface_node, nodal[:, 4], np.nan).reshape(n, n),
         }
 
     def touching_height(self, displacement: np.ndarray, force: float,
@@ -612,9 +688,11 @@ class RigidFlat:
         elastic_modulus : float
             E' = E / (1 - nu^2) [Pa].
         """
+        owned = self.owned_grid
         tops = (self._tributary @ (self.heights + self.interpolate(
-            self.gather_nodes(displacement[self.nodes, 2]))))[self.node_free]  # h - g~_a [m]
-        area = self.node_area[self.node_free]
+            self.gather_nodes(displacement[self.nodes, 2]))))[owned]  # h - g~_a [m]
+        tops, area = self.gather_nodes(np.column_stack([tops, self.node_area[owned]]))[
+            self.surface_node].T
         stiffness = 1.0 / (1.0 / (self.law.penalty * area)
                            + 0.95 / (elastic_modulus * np.sqrt(area)))
         order = np.argsort(tops)[::-1]

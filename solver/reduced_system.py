@@ -138,7 +138,7 @@ class ReducedSystem:
         on the periodic surface grid (the columns of the contact tangent)."""
         flat, n = self.flat, self.flat.grid_size
         node_reduced = flat.gather_nodes(self.reduction.reduced_node[flat.nodes])
-        neighbours = flat.neighbours[flat.owned_grid]  # -1: padding (ignored by PETSc)
+        neighbours = flat.neighbours_of(flat.owned_grid)  # -1: padding (ignored by PETSc)
         self._contact_rows = (3 * node_reduced[flat.owned_grid][:, None]
                               + np.arange(3)).astype(PETSc.IntType)
         self._contact_columns = np.where(neighbours >= 0, node_reduced[neighbours],

@@ -399,9 +399,89 @@ def test_the_tangent_of_faces_of_varying_width_matches_central_differences():
     row_of[flat.owned_grid] = np.arange(m)
     jacobian = central_differences(flat, u0, height, slide, 1e-5 * pressure / PENALTY)
     tangent = np.zeros_like(jacobian)
-    for a in range(n * n):
-        for slot, b in enumerate(flat.neighbours[a]):
+    for a in flat.owned_grid:
+        for slot, b in enumerate(flat.neighbours_of(a)):
             if b >= 0:
                 tangent[a, :, row_of[b], :] += response.node_stiffness[a, slot]
     assert np.abs(jacobian).max() > 0.1 * PENALTY * SPACING**2
     np.testing.assert_allclose(tangent, jacobian, rtol=1e-5, atol=1e-7 * PENALTY * SPACING**2)
+
+
+# --- several ranks, each evaluating the faces near its own nodes -------------------------------
+
+@pytest.mark.mpi
+@pytest.mark.parametrize("uniform", [True, False], ids=["uniform", "adaptive"])
+def test_ranks_evaluating_their_own_faces_reproduce_the_single_rank_contact(uniform):
+    """Ownership in slabs of half the surface over the ranks: each rank's nodal forces, gaps,
+    pressures and tangent rows of its own nodes, and the integrals, counts, maps and first flat
+    height over all ranks, equal a single rank's over two sliding iterates and an Uzawa
+    update (each rank evaluating fewer faces than the surface has)."""
+    from roughfriction.case import MeshOptions
+    from roughfriction.geometry.adaptive import adaptive_layout
+    from roughfriction.solver.contact import surface_faces
+
+    comm = MPI.COMM_WORLD
+    if uniform:
+        n, cells = 16, None
+        grid = np.arange(n * n)
+    else:
+        zone = np.zeros((12, 12), bool)
+        zone[1, 2] = zone[3, 0] = zone[6, 5] = zone[11, 11] = True
+        cells = adaptive_layout(12, SPACING * 2, 1, zone, MeshOptions()).cells
+        n = cells.grid_size
+        faces = surface_faces(n, cells)
+        grid = np.unique(faces.masters[faces.weights > 0.0])
+    rng = np.random.default_rng(5)
+    heights = rng.normal(size=len(grid)) * 1e-9  # [m]
+    displacement = rng.normal(size=(len(grid), 3)) * 1e-11  # [m]
+    i, j = np.divmod(grid, n)
+    mine = (i // (n // 2)) % comm.size == comm.rank
+    law = ContactLaw(PENALTY, 1e-3 * PENALTY, TAU_C, RAMP)
+
+    def flat(communicator, keep):
+        return anchored(RigidFlat(communicator, np.arange(np.count_nonzero(keep)),
+                                  np.column_stack([i[keep], j[keep]]), n, heights[keep],
+                                  SPACING, law, 2, cells=cells))
+
+    whole, part = flat(MPI.COMM_SELF, np.ones(len(grid), bool)), flat(comm, mine)
+    owned = set(part.owned_grid)
+    assert len(part.face_ids) < part.num_faces or comm.size == 1
+    height = np.quantile(heights, 0.7)
+    for predictor in (True, False):
+        arguments = (height, 2 * TAU_C / (1e-3 * PENALTY), True, predictor)
+        single = whole.respond(displacement, *arguments)
+        shared = part.respond(displacement[mine], *arguments)
+        assert 0 < whole.count(single.node_active) < len(grid)
+        for name in ("node_gap", "node_pressure", "node_force", "node_height_derivative"):
+            np.testing.assert_allclose(getattr(shared, name)[part.owned_grid],
+                                       getattr(single, name)[part.owned_grid], rtol=1e-12,
+                                       atol=0, err_msg=name)
+        expected, got = tangent_entries_of(whole, single, owned), tangent_entries_of(
+            part, shared, owned)
+        assert expected.keys() == got.keys() and expected
+        for key, block in expected.items():
+            np.testing.assert_allclose(got[key], block, rtol=1e-12, atol=0)
+        for measure in ("normal_force", "tangential_force", "penetration"):
+            assert getattr(part, measure)(shared) == pytest.approx(
+                getattr(whole, measure)(single), rel=1e-12)
+        assert part.area_ratio(shared.in_contact) == pytest.approx(
+            whole.area_ratio(single.in_contact), rel=1e-12)
+        assert part.count(shared.node_active) == whole.count(single.node_active)
+        single_maps, shared_maps = whole.node_maps(single), part.node_maps(shared)
+        for name, values in single_maps.items():
+            np.testing.assert_allclose(shared_maps[name], values, rtol=1e-12, atol=0,
+                                       err_msg=name)
+        for f, response in ((whole, single), (part, shared)):
+            f.augment(response)
+            f.commit(response)
+    force = 0.5 * whole.normal_force(single)
+    assert part.touching_height(displacement[mine], force, 200e9) == pytest.approx(
+        whole.touching_height(displacement, force, 200e9), rel=1e-12)
+
+
+def tangent_entries_of(flat, response, owned):
+    """The tangent blocks [N/m] of the ``owned`` nodes keyed by (node a, neighbour b)."""
+    nodes, blocks = response.node_blocks
+    neighbours = flat.neighbours_of(nodes)
+    return {(a, b): blocks[row, slot] for row, a in enumerate(nodes) if a in owned
+            for slot, b in enumerate(neighbours[row]) if b >= 0 and blocks[row, slot].any()}
