@@ -39,9 +39,9 @@ import numpy as np
 from roughfriction.case import MeshOptions, ZoneRefinement
 from roughfriction.errors import InputError
 from roughfriction.geometry.mesh import (
-    CONTACT_MEMORY_PER_NODE_GB,
     MEMORY_PER_DOF_GB,
     MEMORY_PER_RANK_GB,
+    contact_memory_gb,
     layer_layout,
 )
 from roughfriction.geometry.surface import bilinear_refine
@@ -477,8 +477,8 @@ def layout_dofs(layout: AdaptiveLayout) -> int:
 def estimated_memory_gb(layout: AdaptiveLayout, ranks: int, dofs: int | None = None) -> float:
     """Peak memory of an FEM run on the adaptive block, summed over ``ranks`` ranks [GB]: the
     fit of ``geometry.mesh.estimated_memory_gb`` with this block's reduced ``dofs`` (default
-    :func:`layout_dofs`) and the finest grid's N^2 surface nodes on every rank (the contact is
-    evaluated on the whole surface)."""
+    :func:`layout_dofs`) and the contact of the finest grid's N^2 surface nodes
+    (``geometry.mesh.contact_memory_gb``, as if every face were finest)."""
     dofs = layout_dofs(layout) if dofs is None else dofs
-    return (ranks * (MEMORY_PER_RANK_GB + CONTACT_MEMORY_PER_NODE_GB * layout.grid_size**2)
+    return (ranks * MEMORY_PER_RANK_GB + contact_memory_gb(layout.grid_size, ranks)
             + MEMORY_PER_DOF_GB * dofs)
