@@ -1,8 +1,24 @@
-"""Fixtures shared by the test modules."""
+"""Fixtures shared by the test modules, and a hook that stops every rank of an MPI test run
+when a test fails on one."""
 
 import dataclasses
+import sys
 
 import pytest
+
+
+def pytest_runtest_logreport(report):
+    """Under ``mpirun`` with several ranks, a test that fails on one rank aborts them all once
+    its report is written: the other ranks would wait in their next collective call for ever
+    (and a CI job with them)."""
+    if not report.failed or "mpi4py.MPI" not in sys.modules:
+        return
+    comm = sys.modules["mpi4py.MPI"].COMM_WORLD
+    if comm.size > 1:
+        sys.stderr.write(f"\nrank {comm.rank}: {report.nodeid} failed:\n"
+                         f"{report.longreprtext}\n")
+        sys.stderr.flush()
+        comm.Abort(1)
 
 
 @pytest.fixture
