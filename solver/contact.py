@@ -226,10 +226,11 @@ def first_occurrences(neighbours: np.ndarray) -> np.ndarray:
 
 @dataclass(frozen=True)
 class ContactResponse:
-    """Contact state at every node and integration point, and its nodal forces and tangent.
+    """Contact state at the nodes and integration points a rank evaluates, and its nodal forces
+    and tangent.
 
-    Point arrays have shape (N^2 n^2,) (face-major); node arrays are indexed by the surface grid
-    node i N + j.
+    Point arrays hold the points of the rank's faces (P, face-major: ``RigidFlat.face_ids``);
+    node arrays are indexed by the surface grid node i N + j, exact for the nodes it owns.
 
     Attributes
     ----------
@@ -282,9 +283,10 @@ class ContactResponse:
 
     @cached_property
     def node_blocks(self) -> tuple[np.ndarray, np.ndarray]:
-        """The nodes a with any contact stiffness (grid node i N + j, ascending) and their
-        dR_a/du_b [N/m] for the 25 neighbours b (``NEIGHBOURS``; a neighbour met twice on a
-        grid smaller than 5 holds its block once), shape (m, 25, 3, 3)."""
+        """The owned nodes a with any contact stiffness (grid node i N + j, ascending) and their
+        dR_a/du_b [N/m] for their neighbours b (``RigidFlat.neighbours_of``: on the uniform grid
+        the 25 of ``NEIGHBOURS``, a neighbour met twice on a grid smaller than 5 holding its
+        block once), shape (m, width, 3, 3)."""
         return self.stiffness()
 
     @cached_property
@@ -295,7 +297,8 @@ class ContactResponse:
 
     @property
     def node_stiffness(self) -> np.ndarray:
-        """:attr:`node_blocks` of every node (zero where there is none), (N^2, 25, 3, 3)."""
+        """:attr:`node_blocks` of every grid node (zero where there is none), (N^2, width, 3,
+        3)."""
         nodes, blocks = self.node_blocks
         stiffness = np.zeros((len(self.node_gap),) + blocks.shape[1:])
         stiffness[nodes] = blocks
@@ -638,7 +641,8 @@ class RigidFlat:
         return int(self.comm.allreduce(np.count_nonzero(mask[self.owned_grid])))
 
     def node_maps(self, response: ContactResponse) -> dict:
-        """N x N nodal maps ([i, j] at x = i h, y = j h on the finest grid) of a contact state.
+        """N x N nodal maps ([i, j] at x = i h, y = j h on the finest grid) of a contact state,
+        the same on every rank (a collective call).
 
         "contact": p_a > 0 (bool); "slip": in contact and every point of its tributary area
         slipping (bool); "pressure" and "shear_x": the consistent nodal forces over the node's
@@ -671,7 +675,8 @@ class RigidFlat:
 
     def touching_height(self, displacement: np.ndarray, force: float,
                         elastic_modulus: float) -> float:
-        """A first guess of the flat height h [m] carrying ``force`` [N] from ``displacement``.
+        """A first guess of the flat height h [m] carrying ``force`` [N] from ``displacement``,
+        over all ranks' nodes (a collective call).
 
         Every node is a spring k, the penalty eps a in series with the solid under it, taken as
         a uniformly loaded square of its tributary area a = A_a on a half-space (mean
