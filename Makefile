@@ -130,11 +130,14 @@ bench-error-quick: setup
 
 # Where one FEM run's time goes (studies/profile.py): seconds per phase (residual assembly,
 # return map, contact law, reduced tangent, linear solves) and Krylov iterations per kind of
-# solve -> results/bench/profile_*.json. `make bench-profile PROFILE_CASE=G1:1.86 N=32`.
+# solve -> results/bench/profile_*.json. `make bench-profile PROFILE_CASE=G1:1.86 N=32`;
+# `make bench-profile N=64 MEMORY_CSV=docs/bench/memory.csv` also puts this version's column of
+# the memory table into docs/bench/memory.csv (G5, F* = 0.155, N = 64 on 2 ranks).
 PROFILE_CASE ?= G5:0.155
 bench-profile: setup
 	@$(MPIRUN) $(VENV)/bin/roughfriction bench profile $(firstword $(subst :, ,$(PROFILE_CASE))) \
-	  --load $(lastword $(subst :, ,$(PROFILE_CASE))) --n $(N)
+	  --load $(lastword $(subst :, ,$(PROFILE_CASE))) --n $(N) \
+	  $(if $(MEMORY_CSV),--memory-csv $(MEMORY_CSV))
 
 # The error estimate of --tol against an 8x uniform reference on 4 x 4 windows of G1, G5, G9,
 # 2L, 8L at F* = 0.155 and 0.93 (studies/calibration.py; ~20 min on 2 loaded cores);

@@ -9,6 +9,7 @@ from pathlib import Path
 
 from roughfriction.errors import InputError
 from roughfriction.studies.batch import BENCH_DIR
+from roughfriction.version import __version__
 
 
 def parse_case(text: str) -> tuple[str, float]:
@@ -94,6 +95,10 @@ def add_bench_commands(bench) -> None:
     profile.add_argument("--load", type=float, required=True, help="F* = F_n / (A_n S_y)")
     profile.add_argument("--n", type=int, default=DEFAULT_FEM_N,
                          help=f"surface cells per side (default {DEFAULT_FEM_N})")
+    profile.add_argument("--memory-csv", type=Path, metavar="CSV",
+                         help="also put this version's memory rows into CSV (replacing its "
+                         "earlier ones; the file's rows must be of the same case), e.g. "
+                         "docs/bench/memory.csv with G5 --load 0.155 --n 64")
     profile.set_defaults(run=cmd_bench_profile)
 
     zone = kinds.add_parser("zone", help="how well zones built from a run's contact hold the "
@@ -139,9 +144,11 @@ def cmd_bench_profile(args) -> dict:
     """Time per phase and Krylov iterations of one figure case
     (:func:`roughfriction.studies.bench_fem.profile_case`), as a table."""
     from mpi4py import MPI
-    from roughfriction.studies.bench_fem import profile_case
+    from roughfriction.studies.bench_fem import add_memory_column, profile_case
 
     profile, path = profile_case(args.surface, args.load, args.n, MPI.COMM_WORLD, BENCH_DIR)
+    if args.memory_csv is not None and MPI.COMM_WORLD.rank == 0:
+        add_memory_column(args.memory_csv, profile, ".".join(__version__.split(".")[:2]))
     record = {key: profile[key] for key in ("wall_s", "newton_iterations", "cut_steps", "mu_s")}
     for phase, row in profile["phases"].items():
         record[f"{phase} [s]"] = row["seconds"]

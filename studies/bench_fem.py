@@ -33,7 +33,7 @@ from pathlib import Path
 import h5py
 import numpy as np
 from roughfriction.case import SolverOptions
-from roughfriction.errors import ConvergenceError
+from roughfriction.errors import ConvergenceError, InputError
 from roughfriction.files import atomic_write
 from roughfriction.studies.batch import BENCH_DIR
 
@@ -161,6 +161,68 @@ def path_errors(n: int, ranks: int, cases=HEADLINE_CASES, factor: float = PATH_F
         write_csv([kept[key] for key in sorted(kept)], table, PATH_COLUMNS)
         print(json.dumps(rows[-1]), file=sys.stderr, flush=True)
     return rows
+
+
+#: Memory of a profiled run's fixed start-up on 2 ranks (imports, gmsh) [GB], subtracted in
+#: memory.csv's "above the fixed" row.
+FIXED_STARTUP_GB = 0.335
+#: Columns of memory.csv (``make bench-profile MEMORY_CSV=...``).
+MEMORY_COLUMNS = ("case", "version", "kind", "item", "gb", "kb_per_dof", "kb_per_surface_node")
+
+
+def memory_case_label(profile: dict) -> str:
+    """memory.csv's name of a profiled case, e.g. "G5 N=64 F*=0.155 2 ranks 32784 dofs"."""
+    case = profile["case"]
+    return (f"{case['surface']} N={case['n']} F*={case['load_star']:g} {case['ranks']} ranks "
+            f"{profile['memory']['reduced_dofs']} dofs")
+
+
+def memory_column(profile: dict, version: str) -> list[dict]:
+    """memory.csv's rows of one version from a ``bench profile`` result: the peak after each
+    set-up phase [GB, kB per dof], each object [GB, kB per dof and per surface node], the peak
+    in all and above :data:`FIXED_STARTUP_GB`, and the run's mu_s, Newton and Krylov counts."""
+    memory, case = profile["memory"], memory_case_label(profile)
+
+    def row(kind, item, gb="", per_dof="", per_node=""):
+        return dict(zip(MEMORY_COLUMNS, (case, version, kind, item, gb, per_dof, per_node),
+                        strict=True))
+
+    rows = [row("peak after phase", phase, f"{value['peak_gb']:.4f}",
+                f"{value['peak_kb_per_dof']:.3f}") for phase, value in memory["phases"].items()]
+    rows += [row("object", item, f"{value['gb']:.4f}", f"{value['kb_per_dof']:.3f}",
+                 f"{value['kb_per_surface_node']:.3f}")
+             for item, value in memory["objects"].items()]
+    above = memory["peak_gb"] - FIXED_STARTUP_GB
+    rows += [row("total", "peak (VmHWM, both ranks)", f"{memory['peak_gb']:.4f}",
+                 f"{memory['peak_kb_per_dof']:.3f}"),
+             row("total", f"peak above the fixed {FIXED_STARTUP_GB} GB (imports, gmsh)",
+                 f"{above:.4f}", f"{above * 2**30 / 1e3 / memory['reduced_dofs']:.3f}")]
+    krylov = "/".join(str(value["krylov_iterations"])
+                      for value in profile["linear_solves"].values())
+    return rows + [row("result", f"mu_s={profile['mu_s']:.12f} "
+                       f"newton={profile['newton_iterations']} krylov={krylov}")]
+
+
+def add_memory_column(path: Path, profile: dict, version: str) -> None:
+    """Replace ``version``'s rows of memory.csv at ``path`` (written if absent) by those of
+    ``profile`` (:func:`memory_column`); the other versions' rows stay.
+
+    Raises
+    ------
+    InputError
+        The file's rows are of another case than the profile's.
+    """
+    rows = []
+    if Path(path).is_file():
+        with open(path, newline="") as stream:
+            rows = list(csv.DictReader(stream))
+    new = memory_column(profile, version)
+    cases = {row["case"] for row in rows}
+    if cases and cases != {new[0]["case"]}:
+        raise InputError(f"{path} holds {', '.join(sorted(cases))}, not {new[0]['case']}: "
+                         "profile that case or give another file")
+    rows = [row for row in rows if row["version"] != version] + new
+    atomic_write(path, lambda temporary: write_csv(rows, Path(temporary), MEMORY_COLUMNS))
 
 
 def profile_case(surface: str, load: float, n: int, comm,

@@ -308,4 +308,4 @@ def memory_summary(comm, marks: MemoryMarks, objects: dict, reduced_dofs: int,
                  for name, size in objects.items()}
     peak = total(_status_kb("VmHWM"))
     return {"peak_gb": peak / 2**20, "peak_kb_per_dof": peak * 1.024 / reduced_dofs,
-            "phases": phases, "objects": by_object}
+            "reduced_dofs": reduced_dofs, "phases": phases, "objects": by_object}

@@ -81,3 +81,39 @@ def test_a_path_run_without_inception_leaves_the_error_empty(tmp_path, monkeypat
     rows = benchmark.path_errors(32, 2, [("G5", 0.93), ("G1", 1.86)])
     assert [row["path_error"] for row in rows] == [None, None]
     assert not any(row["converged"] for row in rows)
+
+
+def profile_of(n, peak_gb):
+    """A ``bench profile`` result of G5 at F* = 0.155 with one phase and one object."""
+    return {"case": {"surface": "G5", "load_star": 0.155, "n": n, "ranks": 2},
+            "mu_s": 0.25, "newton_iterations": 41,
+            "linear_solves": {"x1 cg": {"krylov_iterations": 507},
+                              "x2 cg": {"krylov_iterations": 158}},
+            "memory": {"peak_gb": peak_gb, "peak_kb_per_dof": 16.0, "reduced_dofs": 32784,
+                       "phases": {"mesh": {"peak_gb": 0.34, "peak_kb_per_dof": 11.1}},
+                       "objects": {"reduced tangent": {"gb": 0.0667, "kb_per_dof": 2.185,
+                                                       "kb_per_surface_node": 17.5}}}}
+
+
+def test_a_version_s_memory_column_replaces_its_own_and_keeps_the_others(tmp_path):
+    import csv
+
+    import pytest
+    from roughfriction.errors import InputError
+
+    path = tmp_path / "memory.csv"
+    benchmark.add_memory_column(path, profile_of(64, 0.50), "0.23")
+    benchmark.add_memory_column(path, profile_of(64, 0.60), "0.24")
+    benchmark.add_memory_column(path, profile_of(64, 0.49), "0.24")
+    with open(path, newline="") as stream:
+        rows = list(csv.DictReader(stream))
+    peaks = {row["version"]: row for row in rows if row["item"].startswith("peak (VmHWM")}
+    assert [row["version"] for row in rows].count("0.24") == 5  # replaced, not appended
+    assert peaks["0.23"]["gb"] == "0.5000" and peaks["0.24"]["gb"] == "0.4900"
+    above = next(row for row in rows if row["version"] == "0.24" and "above" in row["item"])
+    assert float(above["kb_per_dof"]) == pytest.approx(
+        (0.49 - benchmark.FIXED_STARTUP_GB) * 2**30 / 1e3 / 32784, abs=1e-3)
+    assert rows[-1]["item"] == "mu_s=0.250000000000 newton=41 krylov=507/158"
+    assert rows[0]["case"] == "G5 N=64 F*=0.155 2 ranks 32784 dofs"
+    with pytest.raises(InputError, match="not G5 N=128"):
+        benchmark.add_memory_column(path, profile_of(128, 0.9), "0.24")

@@ -3,6 +3,7 @@
 import dolfinx  # noqa: F401  (an install without the FEM fails here)
 import numpy as np
 import pytest
+import roughfriction
 from mpi4py import MPI
 from roughfriction.case import FemCase, Loading
 from roughfriction.geometry.surface import Surface
@@ -57,11 +58,17 @@ def test_bench_profile_command_writes_its_json(tmp_path, monkeypatch, capsys):
 
     from roughfriction.scripts import bench
     from roughfriction.scripts.cli import main
+    from roughfriction.studies.doc_tables import memory_table
 
     monkeypatch.setattr(bench, "BENCH_DIR", tmp_path)
-    assert main(["bench", "profile", "G5", "--load", "0.155", "--n", "8", "--json"]) == 0
+    assert main(["bench", "profile", "G5", "--load", "0.155", "--n", "8", "--json",
+                 "--memory-csv", str(tmp_path / "memory.csv")]) == 0
     record = json.loads(capsys.readouterr().out)
     written = json.loads((tmp_path / "profile_G5_F0.155_N8_1ranks.json").read_text())
+    version = ".".join(roughfriction.__version__.split(".")[:2])
+    table = memory_table(tmp_path)  # this version's column, from the profile just run
+    assert f"| kB per dof ({version}) |" in table
+    assert f"| peak (VmHWM, both ranks) | {written['memory']['peak_kb_per_dof']:.3f} |" in table
     assert written["case"] == {"surface": "G5", "load_star": 0.155, "n": 8, "ranks": 1}
     assert written["converged"] and written["mu_s"] == pytest.approx(record["mu_s"])
     assert record["linear solves [s]"] == pytest.approx(
