@@ -388,7 +388,8 @@ class RigidFlat:
             raise RuntimeError(f"surface nodes are not the {len(needed)} free nodes of the "
                                f"{n} x {n} surface grid, once each")
         self.node_heights = self.gather_nodes(heights)
-        self.surface_node = self.gather_nodes(np.ones(len(nodes), dtype=bool))  # free, (N^2,)
+        self.surface_node = np.zeros(n * n, dtype=bool)  # a free node there, (N^2,)
+        self.surface_node[self._gathered_grid] = True
         self.num_faces = len(faces.width)
         local, counted = local_faces(faces, self.gather_nodes(np.full(len(nodes), comm.rank)),
                                      comm.rank)
@@ -653,11 +654,11 @@ class RigidFlat:
         forces and no gap (NaN).
         """
         n, owned = self.grid_size, self.owned_grid
-        touching = self._tributary @ response.in_contact.astype(float)
-        sticking = self._tributary @ (response.in_contact & ~response.slipping).astype(float)
+        touching_area = self._tributary @ response.in_contact.astype(float)
+        sticking_area = self._tributary @ (response.in_contact & ~response.slipping).astype(float)
         area = self.node_area[owned]
         nodal = self.gather_nodes(np.column_stack([
-            touching[owned], sticking[owned], response.node_force[owned, 2] / area,
+            touching_area[owned], sticking_area[owned], response.node_force[owned, 2] / area,
             -response.node_force[owned, 0] / area, response.node_gap[owned]]))
         fraction = (self.point_weight * response.in_contact).reshape(len(self.face_area), -1).sum(
             axis=1)

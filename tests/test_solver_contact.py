@@ -409,6 +409,14 @@ def test_the_tangent_of_faces_of_varying_width_matches_central_differences():
 
 # --- several ranks, each evaluating the faces near its own nodes -------------------------------
 
+def tangent_entries_of(flat, response, owned):
+    """The tangent blocks [N/m] of the ``owned`` nodes keyed by (node a, neighbour b)."""
+    nodes, blocks = response.node_blocks
+    neighbours = flat.neighbours_of(nodes)
+    return {(a, b): blocks[row, slot] for row, a in enumerate(nodes) if a in owned
+            for slot, b in enumerate(neighbours[row]) if b >= 0 and blocks[row, slot].any()}
+
+
 @pytest.mark.mpi
 @pytest.mark.parametrize("uniform", [True, False], ids=["uniform", "adaptive"])
 def test_ranks_evaluating_their_own_faces_reproduce_the_single_rank_contact(uniform):
@@ -477,11 +485,3 @@ def test_ranks_evaluating_their_own_faces_reproduce_the_single_rank_contact(unif
     force = 0.5 * whole.normal_force(single)
     assert part.touching_height(displacement[mine], force, 200e9) == pytest.approx(
         whole.touching_height(displacement, force, 200e9), rel=1e-12)
-
-
-def tangent_entries_of(flat, response, owned):
-    """The tangent blocks [N/m] of the ``owned`` nodes keyed by (node a, neighbour b)."""
-    nodes, blocks = response.node_blocks
-    neighbours = flat.neighbours_of(nodes)
-    return {(a, b): blocks[row, slot] for row, a in enumerate(nodes) if a in owned
-            for slot, b in enumerate(neighbours[row]) if b >= 0 and blocks[row, slot].any()}
