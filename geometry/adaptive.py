@@ -325,6 +325,48 @@ def uncovered_nodes(levels: np.ndarray, level: int, contact: np.ndarray) -> np.n
     return np.asarray(contact, dtype=bool) & around
 
 
+def interpolated_in_cells(values: np.ndarray, levels: np.ndarray, level: int) -> np.ndarray:
+    """A nodal field of the surface given at the free nodes only (NaN at the grid points inside
+    a coarse cell or hanging on its edge), completed by the bilinear interpolation of the
+    corners of the coarsest surface cell each such point lies on: the field a bilinear (Q1)
+    surface carries there.
+
+    Parameters
+    ----------
+    values : numpy.ndarray
+        Nodal values on the finest grid, NaN where there is no free node, shape (N, N).
+    levels : numpy.ndarray
+        Surface cell levels on the finest grid (:func:`surface_levels`), shape (N, N).
+    level : int
+        L [-].
+
+    Returns
+    -------
+    numpy.ndarray
+        float, shape (N, N); NaN only where ``values`` has no value at a cell's corners.
+    """
+    result = np.array(values, dtype=float)
+    levels = np.asarray(levels)
+    size = result.shape[0]
+    for _ in range(level + 1):  # a corner hanging on a coarser cell is filled a pass later
+        i, j = np.nonzero(np.isnan(result))
+        if i.size == 0:
+            break
+        # of the 4 cells around node (i, j) (cells i - 1 .. i, j - 1 .. j), the coarsest
+        around = [((i - di) % size, (j - dj) % size) for di in (0, 1) for dj in (0, 1)]
+        cell_levels = np.stack([levels[ci, cj] for ci, cj in around])
+        pick = np.argmin(cell_levels, axis=0)
+        ci = np.choose(pick, [ci for ci, _ in around])
+        cj = np.choose(pick, [cj for _, cj in around])
+        width = 1 << (level - cell_levels.min(axis=0).astype(int))
+        i0, j0 = ci - ci % width, cj - cj % width
+        s, t = ((i - i0) % size) / width, ((j - j0) % size) / width
+        i1, j1 = (i0 + width) % size, (j0 + width) % size
+        result[i, j] = ((1 - s) * (1 - t) * result[i0, j0] + s * (1 - t) * result[i1, j0]
+                        + (1 - s) * t * result[i0, j1] + s * t * result[i1, j1])
+    return result
+
+
 def overlapped_nodes(heights: np.ndarray, level: int, flat_height: float) -> np.ndarray:
     """Nodes of level L's finest grid where a rigid flat at ``flat_height`` [m] above the mean
     plane overlaps the undeformed surface: the mean-free bilinear surface of the own-grid
@@ -335,14 +377,17 @@ def overlapped_nodes(heights: np.ndarray, level: int, flat_height: float) -> np.
     return bilinear_refine(heights - heights.mean(), 1 << level) >= flat_height
 
 
-def refinement_after(refinement: ZoneRefinement | None, contact: np.ndarray, margin: int
-                     ) -> ZoneRefinement:
+def refinement_after(refinement: ZoneRefinement | None, contact: np.ndarray, margin: int,
+                     near: np.ndarray | None = None) -> ZoneRefinement:
     """The zone refinement one level finer than ``refinement`` (None: the structured block,
     level 0): level L + 1 over the cells of level L's finest grid (h / 2^L) touching a node in
     ``contact`` (bool, that grid's shape), dilated by ``margin`` of those cells
-    (:func:`cells_at_nodes`)."""
+    (:func:`cells_at_nodes`), and the cells touching a node in ``near`` (bool, optional)."""
     level = 0 if refinement is None else refinement.level
-    return ZoneRefinement(level + 1, cells_at_nodes(np.asarray(contact, dtype=bool), margin))
+    zone = cells_at_nodes(np.asarray(contact, dtype=bool), margin)
+    if near is not None:
+        zone |= cells_at_nodes(np.asarray(near, dtype=bool))
+    return ZoneRefinement(level + 1, zone)
 
 
 def _corners(i0: np.ndarray, j0: np.ndarray, width: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -362,3 +362,25 @@ def bilinear_refine(heights, factor: int) -> np.ndarray:
         new_shape[axis] *= factor
         z = expanded.reshape(new_shape)
     return z
+
+
+def bilinear_rms_height(heights) -> float:
+    """RMS height about the mean of the periodic bilinear interpolant of a height grid, the
+    surface the FEM meshes [m]: the same for every :func:`bilinear_refine` of it (lower than
+    the grid points' R_q where neighbouring heights differ).
+
+    With the 1D element integrals 1/3 (a node with itself) and 1/6 (with its neighbour), the
+    mean square of the interpolant is the mean over nodes of 4/9 z^2 + 2/9 z (z_x + z_y)
+    + 1/18 (z z_xy + z_x z_y), z_x, z_y, z_xy the heights one node on in x, y and both.
+
+    Parameters
+    ----------
+    heights : numpy.ndarray
+        Heights [m], shape (n, n), one period of a periodic surface.
+    """
+    z = _as_grid(heights)
+    z = z - z.mean()  # the interpolant's mean is the nodes' mean
+    z_x, z_y = np.roll(z, -1, axis=0), np.roll(z, -1, axis=1)
+    z_xy = np.roll(z_x, -1, axis=1)
+    mean_square = np.mean(4 / 9 * z**2 + 2 / 9 * z * (z_x + z_y) + 1 / 18 * (z * z_xy + z_x * z_y))
+    return float(np.sqrt(mean_square))

@@ -50,6 +50,7 @@ from roughfriction.errors import ConvergenceError, InputError
 from roughfriction.files import agreed, check_writable_directory, check_writable_file
 from roughfriction.geometry.surface import Surface, surface_on_fem_grid, validate_grid_points
 from roughfriction.material import Material
+from roughfriction.solver.results import CANDIDATE_GAP_SHARE
 from roughfriction.studies.refinement import (
     DEFAULT_MAX_LEVEL,
     LADDERS,
@@ -91,9 +92,10 @@ def add_fem_arguments(parser: argparse.ArgumentParser) -> None:
                         "two; exit 3 with the best estimate when a limit stops it")
     parser.add_argument("--ladder", choices=LADDERS,
                         help="with --tol or --refine: each level refines the contact of the one "
-                        "before 2x (adaptive, the default: cells at a node in contact after the "
-                        "preload or at inception, or overlapped by the rigid flat, plus a "
-                        "margin) or the whole surface (uniform)")
+                        "before 2x (adaptive, the default: the cells around its nodes in "
+                        "contact after the preload or at inception, plus one cell, and at its "
+                        f"nodes within {CANDIDATE_GAP_SHARE:g} Rq of the flat) or the whole "
+                        "surface (uniform)")
     parser.add_argument("--max-level", type=_level, metavar="L",
                         help=f"with --tol: finest mesh 2^L times finer (default "
                         f"{DEFAULT_MAX_LEVEL})")
@@ -385,7 +387,8 @@ def run_levels(case: FemCase, outputs: FemOutputs, limits: LadderLimits, meshed:
     are those of level 0. Returns the finest level's summary with the estimate and the
     per-level columns; raises :class:`ToleranceNotMet` (exit 3, after writing) when a limit
     stopped the ladder short of the tolerance or of an estimate."""
-    from roughfriction.solver.run import contact_candidates, run
+    from roughfriction.solver.results import touched_nodes
+    from roughfriction.solver.run import near_flat, run
 
     finest = {}  # the summary of the last level run
 
@@ -404,7 +407,7 @@ def run_levels(case: FemCase, outputs: FemOutputs, limits: LadderLimits, meshed:
         key = "area_ratio_normal" if level_case.loading.normal_only else "mu_s"
         sizes = fem_run.result.sizes
         return LevelRun(summary[key], sizes["reduced_dofs"], sizes["cells"], save,
-                        contact_candidates(level_case, fem_run))
+                        touched_nodes(fem_run.maps), near_flat(level_case, fem_run))
 
     ladder = run_ladder(case, run_level, limits,
                         lambda level_case: level_memory_gb(level_case, comm.size))

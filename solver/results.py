@@ -6,7 +6,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from roughfriction.geometry.adaptive import overlapped_nodes
+from roughfriction.case import ZoneRefinement
+from roughfriction.geometry.adaptive import interpolated_in_cells, overlapped_nodes, surface_levels
 from scipy import ndimage
 
 
@@ -81,14 +82,52 @@ def touched_nodes(maps: dict) -> np.ndarray:
     return contact
 
 
-def candidate_nodes(maps: dict, heights: np.ndarray, level: int, lowest_flat: float
-                    ) -> np.ndarray:
-    """Where a finer mesh may be in contact, on a run's finest grid (bool): the nodes in
-    contact (:func:`touched_nodes` of the run's ``maps``) and those a rigid flat at the run's
-    lowest height ``lowest_flat`` [m] overlaps on the undeformed surface of the own-grid
-    ``heights`` [m] refined ``level`` times (``geometry.adaptive.overlapped_nodes``), which a
-    more compliant mesh may bring into contact although this one does not."""
-    return touched_nodes(maps) | overlapped_nodes(heights, level, lowest_flat)
+#: A node may touch on a mesh twice as fine where its deformed gap on this mesh is below this
+#: share of the RMS height of the meshed (bilinear) surface [-]: the smallest that held every
+#: contact node of the finer mesh in docs/verification.md ("Does a run's contact predict where
+#: a mesh twice as fine touches?").
+CANDIDATE_GAP_SHARE = 0.8
+
+
+def closest_gap(maps: dict) -> np.ndarray:
+    """The smallest weighted gap of each node between the flat and the deformed surface at
+    the end of the preload and at inception (when reached) [m], on a run's finest grid; NaN
+    where the run has no free surface node (``solver.contact.RigidFlat.node_maps``)."""
+    gap = np.asarray(maps["gap_normal"], dtype=float)
+    if "gap_sliding" in maps:
+        gap = np.fmin(gap, np.asarray(maps["gap_sliding"], dtype=float))
+    return gap
+
+
+def near_flat_nodes(maps: dict, heights: np.ndarray, lowest_flat: float, gap_limit: float,
+                    refinement: ZoneRefinement | None = None) -> np.ndarray:
+    """Where a mesh twice as fine may touch besides a run's contact, on its finest grid (bool):
+    the nodes both overlapped by the rigid flat at the run's lowest height on the undeformed
+    surface (``geometry.adaptive.overlapped_nodes``: the surface only moves down, so no other
+    node can touch a flat as high) and within ``gap_limit`` of it on the deformed one
+    (:func:`closest_gap`).
+
+    Parameters
+    ----------
+    maps : dict
+        The run's maps (``FemRun.maps``) on its finest grid.
+    heights : numpy.ndarray
+        Own-grid heights of the surface [m], shape (n, n).
+    lowest_flat : float
+        The flat's lowest height above the mean plane in the run [m].
+    gap_limit : float
+        Largest deformed gap of a candidate [m].
+    refinement : ZoneRefinement, optional
+        The run's adaptive zone; there the gap at the grid points without a free node is
+        interpolated over the surface cell they lie on
+        (``geometry.adaptive.interpolated_in_cells``).
+    """
+    gap, level = closest_gap(maps), 0
+    if refinement is not None:
+        level = refinement.level
+        levels = surface_levels(np.shape(heights)[0], level, refinement.zone)
+        gap = interpolated_in_cells(gap, levels, level)
+    return overlapped_nodes(heights, level, lowest_flat) & (gap < gap_limit)
 
 
 def count_patches(contact: np.ndarray) -> int:

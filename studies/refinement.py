@@ -82,14 +82,15 @@ def level_case(case: FemCase, level: int) -> FemCase:
     return refined_case(case, LADDER_RATIO**level)
 
 
-def adaptive_level_case(case: FemCase, contact: np.ndarray, margin: int) -> FemCase:
+def adaptive_level_case(case: FemCase, contact: np.ndarray, margin: int,
+                        near: np.ndarray | None = None) -> FemCase:
     """The contact-adaptive level after ``case`` (a level-0 case, or one with a
     ``ZoneRefinement`` of level L): the same surface with the cells of level L's finest grid
-    at a node of ``contact`` (contact candidates, bool, that grid's shape), dilated by
-    ``margin`` of those
-    cells, refined to level L + 1 (``geometry.adaptive.refinement_after``), 2:1 balanced; the
-    blend zone as deep as the case meshes it (:func:`blend_depth_layers`)."""
-    zone = refinement_after(case.mesh.refinement, contact, margin)
+    at a node of ``contact`` (bool, that grid's shape) dilated by ``margin`` of those cells,
+    and those at a node ``near`` the flat (bool, optional: where a finer mesh may touch),
+    refined to level L + 1 (``geometry.adaptive.refinement_after``), 2:1 balanced; the blend
+    zone as deep as the case meshes it (:func:`blend_depth_layers`)."""
+    zone = refinement_after(case.mesh.refinement, contact, margin, near)
     return replace(case, mesh=replace(case.mesh, blend_layers=blend_depth_layers(case),
                                       refinement=zone))
 
@@ -118,7 +119,7 @@ def level_memory_gb(case: FemCase, ranks: int) -> float:
 
 
 def contact_escaped(case: FemCase, contact: np.ndarray | None) -> bool:
-    """Whether the contact candidates of a level's run (bool nodes on its finest grid,
+    """Whether the contact of a level's run (bool nodes on its finest grid,
     :class:`LevelRun`) reached a cell outside its refined zone
     (``geometry.adaptive.zone_escaped``); never on a uniform level."""
     refinement = case.mesh.refinement
@@ -128,17 +129,18 @@ def contact_escaped(case: FemCase, contact: np.ndarray | None) -> bool:
     return zone_escaped(levels, refinement.level, contact)
 
 
-def next_level(case: FemCase, level: int, current: FemCase, contact: np.ndarray | None,
+def next_level(case: FemCase, level: int, current: FemCase, outcome: LevelRun,
                limits: LadderLimits, margin: int) -> FemCase:
     """The case of level ``level + 1`` of a ladder from ``case`` (level 0), after ``current``
-    (level ``level``): ``limits.ladder`` "uniform": :func:`level_case`; "adaptive":
-    :func:`adaptive_level_case` of ``current`` around its run's ``contact`` with ``margin``
-    [cells of level ``level``'s finest grid]."""
+    (level ``level``, whose run gave ``outcome``): ``limits.ladder`` "uniform":
+    :func:`level_case`; "adaptive": :func:`adaptive_level_case` of ``current`` around its
+    run's contact with ``margin`` [cells of level ``level``'s finest grid] and its nodes near
+    the flat."""
     if limits.ladder == "uniform":
         return level_case(case, level + 1)
-    if contact is None:
+    if outcome.contact is None:
         raise ValueError("an adaptive ladder needs each level's contact map")
-    return adaptive_level_case(current, contact, margin)
+    return adaptive_level_case(current, outcome.contact, margin, outcome.near)
 
 
 def next_mesh(case: FemCase) -> FemCase:
@@ -240,13 +242,13 @@ class LadderLimits:
         Level k + 1 is the contact-adaptive refinement of level k (:func:`adaptive_level_case`)
         or the uniform mesh 2^(k+1) times finer (:func:`level_case`).
     margin : int
-        Adaptive: cells of level k's finest grid (h / 2^k) by which its contact candidates
-        (:class:`LevelRun`) are dilated to make level k + 1's zone [-], >= 0; doubled for the
-        levels after one whose candidates reached a cell outside its zone
-        (:func:`contact_escaped`). Assumed: a patch's boundary moves by O(h / 2^k) between
-        levels k and k + 1, and a new patch appears only where the rigid flat overlapped the
-        undeformed surface at level k (the finer level's flat no lower than that by more than
-        the margin covers); a level that breaks this is flagged ``zone_escaped``.
+        Adaptive: cells of level k's finest grid (h / 2^k) by which its contact
+        (:class:`LevelRun`) is dilated in level k + 1's zone [-], >= 0 (its nodes near the flat
+        join undilated); doubled (0 to 1) for the levels after one whose contact reached a
+        cell outside its zone (:func:`contact_escaped`). Assumed: level k + 1 touches only
+        where level k touched or came near the flat (``solver.results.near_flat_nodes``,
+        measured in docs/verification.md); a level that breaks this is flagged
+        ``zone_escaped``.
     """
 
     tolerance: float | None = None
@@ -268,15 +270,17 @@ class LevelRun:
     """What a runner returns for one level: the ladder's quantity (mu_s, or A_r/A_n for a
     normal-only run) [-], the size of the level's problem (reduced dofs, hexahedra) [-],
     optionally ``save(ladder)``, called once the ladder including this level is known (to write
-    the level's results with the estimate), and the level's contact candidates on its finest
-    grid (bool; an adaptive ladder needs them): the nodes in contact at the end of the preload
-    or at inception, and those the rigid flat overlaps (``solver.run.contact_candidates``)."""
+    the level's results with the estimate), and on its finest grid (bool; an adaptive ladder
+    needs the contact) the nodes in contact at the end of the preload or at inception
+    (``solver.results.touched_nodes``) and those near the flat, where a finer mesh may touch
+    (``solver.run.near_flat``; optional)."""
 
     value: float
     reduced_dofs: int
     cells: int
     save: Callable | None = None
     contact: np.ndarray | None = None
+    near: np.ndarray | None = None
 
 
 @dataclass(frozen=True)
@@ -409,7 +413,7 @@ def run_ladder(case: FemCase, run_level: Callable[[int, FemCase], LevelRun],
     ``limits.ladder`` says) until the estimated relative error of the finest value is within
     ``limits.tolerance`` (without a tolerance: through ``limits.max_level``), or a limit refuses
     the next level (:func:`level_refused`). A level whose contact reached the edge of its zone
-    is marked ``zone_escaped`` and doubles the margin of the levels after it.
+    is marked ``zone_escaped`` and doubles the margin of the levels after it (0 becomes 1).
 
     Parameters
     ----------
@@ -439,8 +443,8 @@ def run_ladder(case: FemCase, run_level: Callable[[int, FemCase], LevelRun],
         ladder = Ladder(key, tuple(levels), estimate, limits)
         done = ladder.met if limits.tolerance is not None else level >= limits.max_level
         if not done:
-            margin = 2 * margin if escaped else margin
-            current = next_level(case, level, current, outcome.contact, limits, margin)
+            margin = max(1, 2 * margin) if escaped else margin
+            current = next_level(case, level, current, outcome, limits, margin)
             stopped = level_refused(current, levels[-1], clock() - started, limits, memory_gb)
             ladder = replace(ladder, stopped=stopped)
         if outcome.save is not None:

@@ -1,13 +1,15 @@
 """How well a refinement zone built from one mesh's contact holds the contact of a mesh twice as
-fine: the evidence behind the adaptive ladder's zone rule (``solver.run.contact_candidates``,
+fine: the evidence behind the adaptive ladder's zone rule (``solver.run.near_flat``,
 ``studies.refinement.adaptive_level_case``).
 
 From a coarse run and a run on a mesh twice as fine (uniform, the same bilinear surface), the
 zone is the coarse grid's cells at the coarse run's contact nodes (at the preload or at
-inception), optionally with the nodes the rigid flat overlaps on the undeformed surface at its
-lowest position, dilated by a margin of cells (``geometry.adaptive.cells_at_nodes``). A fine
-contact node is *uncovered* when a surface cell around it would stay coarse
-(``geometry.adaptive.uncovered_nodes``): refining that zone alone would have missed it.
+inception) dilated by a margin of cells (``geometry.adaptive.cells_at_nodes``): alone, with
+the nodes the rigid flat overlaps on the undeformed surface at its lowest position, or (the
+adaptive ladder's rule, ``geometry.adaptive.refinement_after``) with the cells at the nodes near
+the flat (``solver.results.near_flat_nodes``) undilated. A fine contact node is *uncovered*
+when a surface cell around it would stay coarse (``geometry.adaptive.uncovered_nodes``):
+refining that zone alone would have missed it.
 """
 
 from __future__ import annotations
@@ -18,19 +20,20 @@ import numpy as np
 from roughfriction.errors import InputError
 from roughfriction.files import atomic_write
 from roughfriction.geometry.adaptive import (
-    cells_at_nodes,
     overlapped_nodes,
+    refinement_after,
     surface_levels,
     uncovered_nodes,
 )
-from roughfriction.solver.results import candidate_nodes, touched_nodes
+from roughfriction.geometry.surface import bilinear_rms_height
+from roughfriction.solver.results import CANDIDATE_GAP_SHARE, near_flat_nodes, touched_nodes
 from roughfriction.studies.bench_fem import write_csv
 
 #: Margins [cells of the coarse grid] tried by default.
 MARGINS = (0, 1, 2, 3, 4, 5)
-#: Zone rules: name -> whether the flat's overlap of the undeformed surface joins the contact
-#: (``solver.results.candidate_nodes``, the adaptive ladder's rule) or not.
-RULES = {"contact": False, "contact + overlap": True}
+#: Zone rules: the margin dilates the contact (with the overlapped nodes), the ladder's rule
+#: (last) adds the nodes near the flat undilated.
+RULES = ("contact", "contact + overlap", "contact + near the flat")
 #: Columns of the coverage table.
 FIELDS = ("case", "rule", "margin", "zone_share", "uncovered", "fine_contact_nodes",
           "lowest_flat_m", "overlap_share")
@@ -54,6 +57,9 @@ def coverage_rows(coarse, fine, margins=MARGINS, label: str | None = None) -> li
     if "surface_heights" not in coarse.maps or "surface_heights" not in fine.maps:
         raise InputError("both runs need their surface_heights map (results files written "
                          "by roughfriction fem or the run cache)")
+    if "gap_normal" not in coarse.maps:
+        raise InputError("the coarse run has no gap maps (results files of version 0.21 on): "
+                         "run it again")
     heights = np.asarray(coarse.maps["surface_heights"], dtype=float)
     fine_heights = np.asarray(fine.maps["surface_heights"], dtype=float)
     n = heights.shape[0]
@@ -64,19 +70,23 @@ def coverage_rows(coarse, fine, margins=MARGINS, label: str | None = None) -> li
                        rtol=0.0, atol=1e-9 * np.ptp(heights)):
         raise InputError("the two runs do not mesh the same surface")
     lowest = float(np.min(coarse.steps["flat_height"]))
-    candidates = {rule: candidate_nodes(coarse.maps, heights, 0, lowest) if overlap
-                  else touched_nodes(coarse.maps) for rule, overlap in RULES.items()}
+    touched, overlapped = touched_nodes(coarse.maps), overlapped_nodes(heights, 0, lowest)
+    gap_limit = CANDIDATE_GAP_SHARE * bilinear_rms_height(heights)
+    near = near_flat_nodes(coarse.maps, heights, lowest, gap_limit)
+    # per rule: the nodes dilated by the margin, and those that join undilated
+    seeds = dict(zip(RULES, ((touched, None), (touched | overlapped, None), (touched, near)),
+                     strict=True))
     fine_contact = touched_nodes(fine.maps)
     if label is None:
         label = (f"{coarse.inputs['surface']['name']} "
                  f"F*={coarse.inputs['loading']['load_star']:g}, {n}² -> {2 * n}²")
     common = {"fine_contact_nodes": int(np.count_nonzero(fine_contact)),
               "lowest_flat_m": lowest,
-              "overlap_share": float(overlapped_nodes(heights, 0, lowest).mean())}
+              "overlap_share": float(overlapped.mean())}
     rows = []
-    for rule, nodes in candidates.items():
+    for rule, (dilated, undilated) in seeds.items():
         for margin in margins:
-            zone = cells_at_nodes(nodes, margin)
+            zone = refinement_after(None, dilated, margin, undilated).zone
             uncovered = uncovered_nodes(surface_levels(n, 1, zone), 1, fine_contact)
             rows.append({"case": label, "rule": rule, "margin": margin,
                          "zone_share": float(zone.mean()),

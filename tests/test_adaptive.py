@@ -12,6 +12,7 @@ from roughfriction.geometry.adaptive import (
     cells_at_nodes,
     dilate,
     hanging_masters,
+    interpolated_in_cells,
     node_coordinates,
     overlapped_nodes,
     reduced_dofs,
@@ -412,6 +413,27 @@ def test_the_flat_overlaps_the_bilinear_surface_at_and_above_its_height():
     assert overlapped_nodes(heights, 2, fine.min()).all()
     assert not overlapped_nodes(heights, 0, top + 1e-12).any()
     assert overlapped_nodes(heights, 0, 0.0).sum() == (heights > heights.mean()).sum()
+
+
+@pytest.mark.parametrize("level", [1, 2, 3])
+def test_a_field_at_the_free_surface_nodes_is_completed_bilinearly_in_each_cell(level):
+    """A field bilinear in each own-grid cell (as a Q1 surface's) given at the free surface
+    nodes of an adaptive block is reproduced at every other grid point, hanging nodes whose
+    master hangs on a coarser cell included (level 3)."""
+    n = 6
+    layout = adaptive_layout(n, SPACING, level, patches(n, seed=level, fraction=0.1, margin=0),
+                             MeshOptions())
+    grid, _ = adaptive_block(layout.cells)
+    _, weights = hanging_masters(grid, layout.cells)
+    size = layout.grid_size
+    free = grid[(grid[:, 2] == layout.num_layers) & (weights[:, 0] == 1.0)]
+    field = bilinear_refine(rough(n, SPACING, seed=level), 1 << level)
+    given = np.full((size, size), np.nan)
+    given[free[:, 0] % size, free[:, 1] % size] = field[free[:, 0] % size, free[:, 1] % size]
+    assert np.isnan(given).sum() > size  # coarse cells' interiors and hanging nodes
+    levels = layout.cells.surface_level
+    np.testing.assert_allclose(interpolated_in_cells(given, levels, level), field,
+                               rtol=0, atol=1e-12 * SPACING)
 
 
 def test_uncovered_nodes_are_the_contact_nodes_at_a_cell_outside_the_zone():

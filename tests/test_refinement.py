@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from roughfriction.case import FemCase, Loading
 from roughfriction.errors import InputError
-from roughfriction.geometry.adaptive import cells_at_nodes, dilate
+from roughfriction.geometry.adaptive import cells_at_nodes
 from roughfriction.geometry.mesh import blend_layers_needed, mesh_size
 from roughfriction.geometry.surface import Surface
 from roughfriction.studies.refinement import (
@@ -186,51 +186,72 @@ CASE8 = FemCase(Surface(np.random.default_rng(2).normal(size=(8, 8)) * 1e-7, 1e-
                 Loading(0.155))
 
 
-def disc_runner(radii):
+def disc_runner(radii, reach=(0.0, 0.0, 0.0)):
     """A runner whose contact on level k is the disc of radius ``radii[k]`` own spacings about
-    the surface's centre, on the level's finest grid; it records the cases it ran."""
+    the surface's centre, on the level's finest grid, and whose nodes near the flat reach
+    ``reach[k]`` own spacings further; it records the cases it ran."""
     ran = []
 
     def run_level(level, level_case):
         ran.append(level_case)
         side = CASE8.surface.n << level
-        i, j = np.meshgrid(np.arange(side), np.arange(side), indexing="ij")
-        centre = side / 2
-        contact = (i - centre)**2 + (j - centre)**2 <= (radii[level] * 2**level)**2
-        return LevelRun(0.2 + 0.1 * 0.5**level, 100 * (level + 1), 10, contact=contact)
+        contact, near = (disc(side, side // 2, radius * 2**level)
+                         for radius in (radii[level], radii[level] + reach[level]))
+        return LevelRun(0.2 + 0.1 * 0.5**level, 100 * (level + 1), 10, contact=contact,
+                        near=near)
     return run_level, ran
 
 
-def test_an_adaptive_level_refines_the_cells_around_the_contact_of_the_level_before():
-    run_level, ran = disc_runner([1.0, 1.0, 1.0])
+def test_an_adaptive_level_refines_around_the_contact_and_near_nodes_of_the_level_before():
+    run_level, ran = disc_runner([1.0, 1.0, 1.0], reach=[2.0, 2.0, 2.0])
     ladder = run_ladder(CASE8, run_level, LadderLimits(max_level=2), lambda case: 1.0)
     assert [case.surface for case in ran] == [CASE8.surface] * 3  # the own surface every level
     assert ran[0] is CASE8 and ran[1].mesh.blend_layers == CASE8.mesh.blend_layers
     first, second = (case.mesh.refinement for case in ran[1:])
     assert (first.level, first.zone.shape, second.level, second.zone.shape) == (
         1, (8, 8), 2, (16, 16))
-    # level 0's contact: the 5 nodes within 1 h of the centre node (4, 4); their cells (3..4
-    # and the arms to 2..5), dilated by one cell
-    expected = dilate(cells_at_nodes(disc(8, 4, 1.0)), 1)
-    np.testing.assert_array_equal(first.zone, expected)
+    # level 0's contact: the 5 nodes within 1 h of the centre node (4, 4), their cells
+    # dilated by the default margin of one cell; its nodes near the flat, within 3 h, their
+    # cells undilated
+    np.testing.assert_array_equal(first.zone, cells_at_nodes(disc(8, 4, 1.0), 1)
+                                  | cells_at_nodes(disc(8, 4, 3.0)))
+    np.testing.assert_array_equal(second.zone, cells_at_nodes(disc(16, 8, 2.0), 1)
+                                  | cells_at_nodes(disc(16, 8, 6.0)))
     assert 0 < first.zone.sum() < 64 and second.zone.sum() < 4 * first.zone.sum()
     assert ladder.summary()["levels"]["zone_escaped"] == [False, False, False]
     assert ladder.summary()["error_ladder"] == "adaptive"
 
 
-def test_contact_past_the_zone_is_reported_and_widens_the_next_margin():
-    """Level 1's contact (radius 3.5 h) reaches past the zone made from level 0's (1 h, margin
-    1): level 1 is marked, and level 2's zone is level 1's contact dilated by 2 cells."""
+@pytest.mark.parametrize("margin, widened", [(0, 1), (1, 2)])
+def test_contact_past_the_zone_is_reported_and_widens_the_next_margin(margin, widened):
+    """Level 1's contact (radius 3.5 h) reaches past the zone made from level 0's (1 h):
+    level 1 is marked, and level 2's zone is level 1's contact dilated by twice the margin
+    (one cell from none)."""
     run_level, ran = disc_runner([1.0, 3.5, 3.5])
-    ladder = run_ladder(CASE8, run_level, LadderLimits(max_level=2), lambda case: 1.0)
+    limits = LadderLimits(max_level=2, margin=margin)
+    ladder = run_ladder(CASE8, run_level, limits, lambda case: 1.0)
     assert ladder.summary()["levels"]["zone_escaped"] == [False, True, False]
     np.testing.assert_array_equal(ran[2].mesh.refinement.zone,
-                                  cells_at_nodes(disc(16, 8, 7.0), 2))
-    # the same ladder without the escape keeps a margin of one cell
+                                  cells_at_nodes(disc(16, 8, 7.0), widened))
+    # the same ladder without the escape keeps its margin
     run_level, ran = disc_runner([1.0, 1.0, 1.0])
-    run_ladder(CASE8, run_level, LadderLimits(max_level=2), lambda case: 1.0)
+    run_ladder(CASE8, run_level, limits, lambda case: 1.0)
     np.testing.assert_array_equal(ran[2].mesh.refinement.zone,
-                                  cells_at_nodes(disc(16, 8, 2.0), 1))
+                                  cells_at_nodes(disc(16, 8, 2.0), margin))
+
+
+def test_near_nodes_past_the_zone_are_no_escape():
+    """Level 1's nodes near the flat reach 3 h past its contact, and past its zone (level 0's
+    contact's cells and margin); its contact stays inside: no escape, and level 2 refines
+    around the near nodes too, the contact with the same margin."""
+    run_level, ran = disc_runner([1.0, 1.0, 1.0], reach=[0.0, 3.0, 0.0])
+    ladder = run_ladder(CASE8, run_level, LadderLimits(max_level=2), lambda case: 1.0)
+    assert ladder.summary()["levels"]["zone_escaped"] == [False, False, False]
+    near = cells_at_nodes(disc(16, 8, 8.0))
+    assert not np.all(near <= np.repeat(np.repeat(ran[1].mesh.refinement.zone, 2, axis=0), 2,
+                                        axis=1))  # the near nodes left the zone
+    np.testing.assert_array_equal(ran[2].mesh.refinement.zone,
+                                  near | cells_at_nodes(disc(16, 8, 2.0), 1))
 
 
 def test_a_uniform_ladder_never_escapes_and_an_adaptive_one_needs_contact_maps():

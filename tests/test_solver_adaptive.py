@@ -8,13 +8,14 @@ import pytest
 from roughfriction.case import FemCase, Loading, MeshOptions, ZoneRefinement
 from roughfriction.errors import InputError
 from roughfriction.geometry.adaptive import cells_at_nodes
-from roughfriction.geometry.surface import Surface, bilinear_refine
+from roughfriction.geometry.surface import Surface
 from roughfriction.studies.refinement import refined_case
 
 pytest.importorskip("dolfinx")
 from mpi4py import MPI  # noqa: E402
 from roughfriction.solver.block import build_block, mesh_nodes  # noqa: E402
-from roughfriction.solver.run import FemRun, contact_candidates, run  # noqa: E402
+from roughfriction.solver.results import touched_nodes  # noqa: E402
+from roughfriction.solver.run import FemRun, near_flat, run  # noqa: E402
 from roughfriction.studies.refinement import adaptive_level_case  # noqa: E402
 
 SPACING = 1e-6  # [m]
@@ -108,29 +109,39 @@ def partial_zone_case() -> FemCase:
 
 
 def next_level(case: FemCase, fem_run: FemRun) -> FemCase:
-    """The adaptive level after ``case`` around ``fem_run``'s contact candidates, no margin."""
-    return adaptive_level_case(case, contact_candidates(case, fem_run), margin=0)
+    """The adaptive level after ``case`` around ``fem_run``'s contact (no margin) and its
+    nodes near the flat."""
+    return adaptive_level_case(case, touched_nodes(fem_run.maps), 0, near_flat(case, fem_run))
 
 
-def test_the_next_level_refines_the_cells_around_the_last_level_s_contact():
+def test_the_next_level_refines_the_cells_around_the_last_level_s_contact_and_near_nodes():
     case = partial_zone_case()
-    maps = {"contact_normal": np.zeros((16, 16), bool), "contact_sliding": np.zeros((16, 16), bool)}
+    far = np.full((16, 16), 1.0)  # every node's gap [m]: far above the limit
+    maps = {"contact_normal": np.zeros((16, 16), bool), "contact_sliding": np.zeros((16, 16), bool),
+            "gap_normal": far, "gap_sliding": far}
     maps["contact_normal"][4, 6] = True
     maps["contact_sliding"][5, 6] = True
-    above = SimpleNamespace(records=[SimpleNamespace(flat_height=SPACING)])  # over every peak
-    finer = next_level(case, FemRun(above, maps, None, None))
+    below = SimpleNamespace(records=[SimpleNamespace(flat_height=-SPACING)])  # overlaps all
+    finer = next_level(case, FemRun(below, maps, None, None))
     assert finer.mesh.refinement.level == 2
     zone = finer.mesh.refinement.zone
     assert zone.shape == (16, 16) and zone.sum() == 6 and zone[3:6, 5:7].all()
     assert finer.surface is case.surface and finer.mesh.fine_layers == case.mesh.fine_layers
-    # a flat that came down to the highest fine node overlaps it: its 4 cells join the zone
-    fine = bilinear_refine(case.surface.heights - case.surface.heights.mean(), 2)
-    peak = np.unravel_index(np.argmax(fine), fine.shape)
-    low = SimpleNamespace(records=[above.records[0], SimpleNamespace(flat_height=fine[peak])])
-    at_peak = cells_at_nodes(fine >= fine[peak])
-    zone = next_level(case, FemRun(low, maps, None, None)).mesh.refinement.zone
-    assert at_peak.sum() == 4 and not (at_peak & finer.mesh.refinement.zone).any()
-    np.testing.assert_array_equal(zone, at_peak | finer.mesh.refinement.zone)
+    # a node of the coarse own cell (1, 6) with a penetration, its cell's other grid points
+    # without a free node (NaN): the gap interpolated in the cell is below the limit at the
+    # node and along the cell's edges from it, so the cells around those grid points join
+    gap = far.copy()
+    gap[2:5, 12:15] = np.nan
+    gap[[2, 4, 2, 4], [12, 12, 14, 14]] = [-1.0, 1.0, 1.0, 1.0]
+    maps.update(gap_normal=gap, gap_sliding=gap)
+    near = np.zeros((16, 16), bool)
+    near[[2, 3, 2], [12, 12, 13]] = True
+    zone = next_level(case, FemRun(below, maps, None, None)).mesh.refinement.zone
+    np.testing.assert_array_equal(zone, cells_at_nodes(near) | finer.mesh.refinement.zone)
+    # a flat that stayed above every peak of the undeformed surface overlapped none of them
+    above = SimpleNamespace(records=[SimpleNamespace(flat_height=SPACING)])
+    zone = next_level(case, FemRun(above, maps, None, None)).mesh.refinement.zone
+    np.testing.assert_array_equal(zone, finer.mesh.refinement.zone)
 
 
 @pytest.mark.fem
@@ -162,21 +173,23 @@ AGREEMENT = 1e-3
 
 @pytest.mark.fem
 def test_an_adaptive_level_gives_the_uniform_level_s_mu_s():
-    """G5's third 8 x 8 window at F* = 0.155 (4 nodes in contact at 1x): level 1 refined around
-    the 1x contact candidates (margin 0, so that the zone is partial) against the uniform 2x
-    mesh; the same level around the contact alone (a patch appears at 2x where the flat
-    overlapped the surface at 1x) and with no zone at all both miss it."""
+    """G5's third 8 x 8 window at F* = 0.155 (4 nodes in contact at 1x): level 1 refined as
+    the ladder does (the 1x contact with the default margin, and the nodes near the flat)
+    against the uniform 2x mesh; the same level around the contact alone (a patch appears at
+    2x where the deformed surface came near the flat at 1x) and with no zone at all both miss
+    it."""
     from roughfriction.geometry.adaptive import refinement_after
-    from roughfriction.solver.results import touched_nodes
     from roughfriction.studies.paper import fem_surface
-    from roughfriction.studies.refinement import level_case
+    from roughfriction.studies.refinement import DEFAULT_MARGIN, level_case
 
     case = FemCase(fem_surface("G5", 8, 3), Loading(0.155))
     base = run(case, MPI.COMM_SELF, progress=lambda record: None)
-    adaptive = adaptive_level_case(case, contact_candidates(case, base), margin=0)
-    assert 16 <= adaptive.mesh.refinement.zone.sum() <= 48
+    contact = touched_nodes(base.maps)
+    adaptive = adaptive_level_case(case, contact, DEFAULT_MARGIN, near_flat(case, base))
     contact_only = replace(case, mesh=replace(case.mesh, refinement=refinement_after(
-        None, touched_nodes(base.maps), 1)))
+        None, contact, DEFAULT_MARGIN)))
+    cells = [level.mesh.refinement.zone.sum() for level in (contact_only, adaptive)]
+    assert 16 <= cells[0] < cells[1] < 64  # partial zones, the near nodes' cells added
     empty = replace(case, mesh=replace(case.mesh, refinement=ZoneRefinement(
         1, np.zeros((8, 8), bool))))
     mu_s = {name: run(level, MPI.COMM_SELF, progress=lambda record: None).result.mu_s

@@ -5,6 +5,8 @@ import pytest
 from roughfriction.errors import InputError
 from roughfriction.geometry.surface import (
     Surface,
+    bilinear_refine,
+    bilinear_rms_height,
     crop_square,
     detrend_plane,
     fill_missing,
@@ -197,3 +199,14 @@ def test_spectral_interpolation_refuses_to_coarsen():
 def test_grid_points_must_be_an_integer_of_at_least_four(n):
     with pytest.raises(InputError, match="integer >= 4"):
         validate_grid_points(n)
+
+
+def test_the_bilinear_surface_s_rms_height_is_the_same_on_every_refinement_of_it():
+    z = rough((8, 8), seed=4)
+    rms = bilinear_rms_height(z)
+    assert bilinear_rms_height(bilinear_refine(z, 3)) == pytest.approx(rms, rel=1e-12)
+    assert np.std(bilinear_refine(z, 64)) == pytest.approx(rms, rel=1e-3)  # point samples
+    assert rms < np.std(z)
+    # a checkerboard of +-1: the interpolant (1 - 2x)(1 - 2y) in each cell, RMS 1/3
+    checkerboard = np.where(np.add.outer(np.arange(4), np.arange(4)) % 2, 1.0, -1.0)
+    assert bilinear_rms_height(checkerboard) == pytest.approx(1 / 3, rel=1e-12)

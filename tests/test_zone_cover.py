@@ -11,11 +11,12 @@ from roughfriction.scripts.cli import main
 from roughfriction.studies.zone_cover import coverage_rows, write_rows
 
 
-def _runs(far_contact: bool, overlap_there: bool):
+def _runs(far_contact: bool, overlap_there: bool, near_there: bool = False):
     """A coarse 8 x 8 run touching at node (2, 2) and its 2x run, which touches the same
     point and, with ``far_contact``, node (12, 12) (coarse node (6, 6), whose cells 5..6 are
     three cells from the contact's cells 1..2 across the periodic boundary); with
-    ``overlap_there`` the coarse surface peaks at (6, 6) above the flat's lowest position."""
+    ``overlap_there`` the coarse surface peaks at (6, 6) above the flat's lowest position, with
+    ``near_there`` the coarse run's deformed gap there is zero (else 1 m, far)."""
     heights = np.zeros((8, 8))
     heights[2, 2] = 2e-7
     heights[6, 6] = 2e-7 if overlap_there else 0.0
@@ -25,7 +26,10 @@ def _runs(far_contact: bool, overlap_there: bool):
     fine_contact[4, 4] = True
     fine_contact[12, 12] = far_contact
     inputs = {"surface": {"name": "test"}, "loading": {"load_star": 0.155}}
-    coarse = SimpleNamespace(maps={"contact_normal": contact, "surface_heights": heights},
+    gap = np.ones((8, 8))
+    gap[2, 2], gap[6, 6] = -1e-9, 0.0 if near_there else 1.0
+    coarse = SimpleNamespace(maps={"contact_normal": contact, "surface_heights": heights,
+                                   "gap_normal": gap},
                              steps={"flat_height": np.array([2e-7, 1e-7])}, inputs=inputs)
     fine = SimpleNamespace(maps={"contact_normal": fine_contact,
                                  "surface_heights": bilinear_refine(heights, 2)},
@@ -53,6 +57,14 @@ def test_the_flats_overlap_covers_a_contact_the_coarse_mesh_did_not_make():
     assert {(row["lowest_flat_m"], row["overlap_share"]) for row in rows} == {(1e-7, 2 / 64)}
 
 
+@pytest.mark.parametrize("overlap_there, near_there, uncovered", [
+    (True, True, 0), (True, False, 1), (False, True, 1)])
+def test_the_ladder_s_near_nodes_are_the_overlapped_nodes_near_the_flat(overlap_there,
+                                                                         near_there, uncovered):
+    rows = coverage_rows(*_runs(True, overlap_there, near_there))
+    assert _uncovered(rows, "contact + near the flat", 0) == uncovered
+
+
 def test_runs_of_different_grids_or_surfaces_are_refused():
     coarse, fine = _runs(far_contact=False, overlap_there=False)
     with pytest.raises(InputError, match="twice"):
@@ -62,6 +74,10 @@ def test_runs_of_different_grids_or_surfaces_are_refused():
                                                            "surface_heights"]}})
     with pytest.raises(InputError, match="same surface"):
         coverage_rows(coarse, other)
+    gapless = SimpleNamespace(**{**vars(coarse), "maps": {
+        key: value for key, value in coarse.maps.items() if key != "gap_normal"}})
+    with pytest.raises(InputError, match="gap maps"):
+        coverage_rows(gapless, fine)
     bare = SimpleNamespace(**{**vars(fine),
                               "maps": {"contact_normal": fine.maps["contact_normal"]}})
     with pytest.raises(InputError, match="surface_heights"):
@@ -73,7 +89,7 @@ def test_the_table_is_written_whole(tmp_path):
     path = write_rows(rows, tmp_path / "zone_cover.csv")
     with open(path) as stream:
         written = list(csv.DictReader(stream))
-    assert [int(row["uncovered"]) for row in written] == [1, 0, 1, 0]
+    assert [int(row["uncovered"]) for row in written] == [1, 0, 1, 0, 1, 0]
     assert [p.name for p in tmp_path.iterdir()] == ["zone_cover.csv"]
 
 
