@@ -105,9 +105,17 @@ bench-multiscale: setup
 # adds serial rows). All of them at N = 128 take hours on 2 cores.
 BENCH_N ?= 32 64 128
 BENCH_CASES ?= G5:0.155 G5:0.93 2L:0.5 G1:1.86
+# Then the levels of the error ladder (`roughfriction fem --tol`), adaptive and uniform, of
+# $(LADDER_CASES) on N = $(LADDER_N) up to level $(LADDER_LEVEL) (2x) -> results/bench/ladder.csv
+# (a row per level: dofs, wall time, mu_s; ~40 min on 2 cores).
+LADDER_CASES ?= G5:0.155
+LADDER_N ?= 128
+LADDER_LEVEL ?= 1
 bench-fem: setup
 	@$(VENV)/bin/roughfriction bench fem --n $(BENCH_N) --ranks $(NP) --case $(BENCH_CASES)
-	@mkdir -p docs/bench && cp results/bench/fem.csv docs/bench/
+	@$(VENV)/bin/roughfriction bench ladder --n $(LADDER_N) --ranks $(NP) --case $(LADDER_CASES) \
+	  --max-level $(LADDER_LEVEL)
+	@mkdir -p docs/bench && cp results/bench/fem.csv results/bench/ladder.csv docs/bench/
 
 # The load path's error (studies/bench_fem.py): the headline cases on the default path and on a
 # 4x finer one (largest preload and sliding increments / 4), at N = 64 (`PATH_N=32` is quicker).

@@ -41,15 +41,26 @@ def add_bench_commands(bench) -> None:
                      help=f"surface cells per side (default {' '.join(map(str, FEM_SIZES))})")
     fem.set_defaults(run=cmd_bench_fem)
 
+    ladder = kinds.add_parser("ladder", help="levels 1x, 2x, ... of the error ladder "
+                              "(roughfriction fem --tol), each ladder under mpirun: wall time, "
+                              f"dofs and mu_s per level -> {BENCH_DIR / 'ladder.csv'}")
+    ladder.add_argument("--n", type=int, nargs="+", default=[128],
+                        help="surface cells per side (default 128)")
+    ladder.add_argument("--max-level", type=int, default=1, metavar="L",
+                        help="finest level, 2^L times finer (default 1)")
+    ladder.add_argument("--ladder", nargs="+", choices=("adaptive", "uniform"),
+                        default=["adaptive", "uniform"],
+                        help="ladders to run (default both, the adaptive first)")
+    ladder.set_defaults(run=cmd_bench_ladder)
+
     path = kinds.add_parser("path", help="mu_s on the default load path against a finer one, "
                             f"each run under mpirun -> {BENCH_DIR / 'path.csv'}")
     path.add_argument("--n", type=int, default=64, help="surface cells per side (default 64)")
     path.set_defaults(run=cmd_bench_path)
-    for parser in (fem, path):
+    for parser, cases in ((fem, headline), (ladder, headline[:1]), (path, headline)):
         parser.add_argument("--ranks", type=int, default=2, help="MPI ranks (default 2)")
-        parser.add_argument("--case", nargs="+", metavar="SURFACE:LOAD", default=headline,
-                            help=f"surfaces and loads F* (default the headline cases: "
-                                 f"{' '.join(headline)})")
+        parser.add_argument("--case", nargs="+", metavar="SURFACE:LOAD", default=cases,
+                            help=f"surfaces and loads F* (default {' '.join(cases)})")
 
     error = kinds.add_parser("error", help="run time against error (run under mpirun) -> "
                              f"{BENCH_DIR / 'error.csv'}, error.png")
@@ -113,7 +124,7 @@ def add_bench_commands(bench) -> None:
     zone.add_argument("--output", metavar="CSV", default=str(BENCH_DIR / "zone_cover.csv"),
                       help="the table (default %(default)s)")
     zone.set_defaults(run=cmd_bench_zone)
-    for parser in (multiscale, fem, path, error, matrix, profile, zone):
+    for parser in (multiscale, fem, ladder, path, error, matrix, profile, zone):
         parser.add_argument("--json", action="store_true", help="one JSON object on stdout")
 
 
@@ -130,6 +141,17 @@ def cmd_bench_fem(args) -> dict:
 
     cases = [parse_case(text) for text in args.case]
     return {"runs": benchmark_sizes(args.n, args.ranks, cases), "csv": str(BENCH_DIR / "fem.csv")}
+
+
+def cmd_bench_ladder(args) -> dict:
+    """Ladder benchmark rows (:func:`roughfriction.studies.bench_fem.benchmark_ladders`)."""
+    from roughfriction.studies.bench_fem import benchmark_ladders
+
+    if args.max_level < 1:
+        raise InputError(f"--max-level must be at least 1, got {args.max_level}")
+    cases = [parse_case(text) for text in args.case]
+    rows = benchmark_ladders(args.n, args.ranks, args.max_level, args.ladder, cases)
+    return {"runs": rows, "csv": str(BENCH_DIR / "ladder.csv")}
 
 
 def cmd_bench_path(args) -> dict:

@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import csv
 import json
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -50,6 +51,21 @@ COLUMNS = ("surface", "load_star", "n", "ranks", "cells", "reduced_dofs", "linea
            "mu_s", "converged")
 
 
+#: Prefixes of the variables an MPI launcher sets in its processes.
+LAUNCHER_VARIABLES = ("OMPI_", "PMIX_", "PMI_", "OPAL_", "HYDRA_")
+#: The user's permission for Open MPI to run as root, kept.
+ROOT_PERMISSION = ("OMPI_ALLOW_RUN_AS_ROOT", "OMPI_ALLOW_RUN_AS_ROOT_CONFIRM")
+
+
+def mpirun_environment() -> dict:
+    """The environment for ``mpirun`` in a child process: this process's as Python read it at
+    start (an MPI singleton's own launcher variables, set later, would make the child's exit
+    status 1 whatever the job's), without an MPI launcher's variables (this process may be an
+    MPI process itself), the permission to run as root kept."""
+    return {key: value for key, value in os.environ.items()
+            if not key.startswith(LAUNCHER_VARIABLES) or key in ROOT_PERMISSION}
+
+
 def case_stem(surface: str, load: float, n: int, ranks: int) -> str:
     """``<surface>_F<load>_N<n>_<ranks>ranks``: the file name of one benchmark case's output."""
     return f"{surface}_F{load:g}_N{n}_{ranks}ranks"
@@ -66,7 +82,8 @@ def run_size(surface: str, load: float, n: int, ranks: int, config: Path | None 
     if config is not None:
         command += ["--config", str(config)]
     output.unlink(missing_ok=True)
-    finished = subprocess.run(command, stdout=subprocess.DEVNULL)  # progress, errors: stderr
+    finished = subprocess.run(command, stdout=subprocess.DEVNULL,  # progress, errors: stderr
+                              env=mpirun_environment())
     if not output.exists():
         raise RuntimeError(f"{surface} at F* = {load:g}, N = {n}: run failed (exit "
                            f"{finished.returncode}) without results")
@@ -81,6 +98,109 @@ def run_size(surface: str, load: float, n: int, ranks: int, config: Path | None 
                                               "cut_steps", "cut_iterations", "mu_s",
                                               "converged")})
     return row
+
+
+#: Columns of the ladder table (ladder.csv): one row per level of a ladder.
+LADDER_COLUMNS = ("surface", "load_star", "n", "ranks", "ladder", "level", "factor",
+                  "reduced_dofs", "cells", "wall_s", "mu_s", "zone_escaped", "mu_s_error",
+                  "peak_memory_gb", "version")
+#: Exit status of ``roughfriction fem --tol`` when a limit stopped the ladder (results written).
+TOLERANCE_NOT_MET = 3
+
+
+def ladder_command(surface: str, load: float, n: int, ranks: int, max_level: int, ladder: str,
+                   output: Path) -> list[str]:
+    """``roughfriction fem`` under mpirun running levels 0 .. ``max_level`` of a ladder (a
+    tolerance of 1e-12 is not met, so every level the limits allow runs; exit 3)."""
+    return ["mpirun", "-n", str(ranks), "--oversubscribe", sys.executable, "-m",
+            "roughfriction.scripts.cli", "fem", surface, "--load", str(load), "--n", str(n),
+            "--tol", "1e-12", "--max-level", str(max_level), "--ladder", ladder,
+            "--output", str(output)]
+
+
+def ladder_rows(summary: dict, sizes: dict, case: dict, version: str) -> list[dict]:
+    """The ladder table's rows of one ladder from its finest level's results file: the
+    ``summary`` (``studies.refinement.Ladder.summary``) and ``sizes`` attributes; ``case``
+    holds surface, load_star, n, ranks and ladder. The peak memory, of the whole process, goes
+    to the finest level's row."""
+    levels = summary["levels"]
+    count = len(levels["factor"])
+    rows = []
+    for level in range(count):
+        finest = level == count - 1
+        rows.append({**case, "level": level, "factor": levels["factor"][level],
+                     "reduced_dofs": levels["reduced_dofs"][level],
+                     "cells": levels["cells"][level], "wall_s": levels["wall_s"][level],
+                     "mu_s": levels["mu_s"][level],
+                     "zone_escaped": levels["zone_escaped"][level],
+                     "mu_s_error": summary["mu_s_error"] if finest else None,
+                     "peak_memory_gb": sizes.get("peak_memory_gb") if finest else None,
+                     "version": version})
+    return rows
+
+
+def run_ladder_levels(surface: str, load: float, n: int, ranks: int, max_level: int,
+                      ladder: str) -> list[dict]:
+    """Run levels 0 .. ``max_level`` of a ladder (:func:`ladder_command`) and return its rows
+    (:func:`ladder_rows`); the finest level's record goes to
+    ``ladder_<ladder>_<case_stem>.h5``."""
+    output = BENCH_DIR / f"ladder_{ladder}_{case_stem(surface, load, n, ranks)}.h5"
+    output.unlink(missing_ok=True)
+    command = ladder_command(surface, load, n, ranks, max_level, ladder, output)
+    finished = subprocess.run(command, stdout=subprocess.DEVNULL,  # progress, errors: stderr
+                              env=mpirun_environment())
+    if finished.returncode not in (0, TOLERANCE_NOT_MET) or not output.exists():
+        raise RuntimeError(f"{surface} at F* = {load:g}, N = {n}, {ladder} ladder: run failed "
+                           f"(exit {finished.returncode})")
+    with h5py.File(output) as h5:
+        summary = json.loads(h5.attrs["summary"])
+        sizes = {key: value.item() if isinstance(value, np.generic) else value
+                 for key, value in h5["sizes"].attrs.items()}
+        version = json.loads(h5.attrs["versions"]).get("roughfriction")
+    case = {"surface": surface, "load_star": load, "n": n, "ranks": ranks, "ladder": ladder}
+    return ladder_rows(summary, sizes, case, version)
+
+
+def ladder_key(row: dict) -> tuple:
+    """(surface, F*, N, ranks, ladder, level) of a ladder row."""
+    return (row["surface"], float(row["load_star"]), int(row["n"]), int(row["ranks"]),
+            row["ladder"], int(row["level"]))
+
+
+def benchmark_ladders(sizes: list[int], ranks: int, max_level: int, ladders=("adaptive",),
+                      cases=HEADLINE_CASES) -> list[dict]:
+    """Every case, grid size and ladder in turn; ``ladder.csv`` is rewritten after each
+    ladder, keeping the rows of other cases, sizes, rank counts and ladders."""
+    BENCH_DIR.mkdir(parents=True, exist_ok=True)
+    table = BENCH_DIR / "ladder.csv"
+    rows = []
+    for surface, load in cases:
+        for n in sizes:
+            for ladder in ladders:
+                new = run_ladder_levels(surface, load, n, ranks, max_level, ladder)
+                merge_ladder_rows(table, new)
+                rows += new
+                print(json.dumps(new), file=sys.stderr, flush=True)
+    return rows
+
+
+def merge_ladder_rows(table: Path, new: list[dict]) -> None:
+    """Put one ladder's rows into the ladder table, replacing that ladder's earlier rows (all
+    of its levels) and keeping the others; written whole or not at all."""
+    replaced = ladder_key(new[0])[:5]
+    kept = {ladder_key(row): row for row in read_table(table)
+            if ladder_key(row)[:5] != replaced}
+    kept |= {ladder_key(row): row for row in new}
+    atomic_write(table, lambda temporary: write_csv([kept[key] for key in sorted(kept)],
+                                                    Path(temporary), LADDER_COLUMNS))
+
+
+def read_table(path: Path) -> list[dict]:
+    """The rows of a CSV table (none if there is no file)."""
+    if not path.exists():
+        return []
+    with open(path, newline="") as file:
+        return list(csv.DictReader(file))
 
 
 def write_csv(rows: list[dict], path: Path, columns=COLUMNS) -> None:

@@ -86,6 +86,25 @@ def fem_table(bench: Path, only_n: int | None = None) -> str:
          for row in rows])
 
 
+def ladder_table(bench: Path) -> str:
+    """`make bench-fem`'s ladders: per level of each ladder its reduced dofs, wall time and
+    mu_s, with the peak memory of the whole ladder and the error estimate on its finest level
+    (ladder.csv)."""
+    rows = read_rows(bench / "ladder.csv")
+    rows.sort(key=lambda row: (row["surface"], float(row["load_star"]), int(row["n"]),
+                               row["ladder"], int(row["level"])))
+    return markdown_table(
+        ["case", "N", "ladder", "level", "reduced dofs", "wall time", "μ_s", "μ_s_error",
+         "peak memory", "zone escaped"],
+        [[case_label(row), row["n"], row["ladder"], f"{row['factor']}x",
+          grouped_thousands(int(row["reduced_dofs"])), seconds(float(row["wall_s"])),
+          f"{float(row['mu_s']):.4f}",
+          f"{float(row['mu_s_error']):.4f}" if row["mu_s_error"] else "",
+          f"{float(row['peak_memory_gb']):.2f} GB" if row["peak_memory_gb"] else "",
+          "yes" if row["zone_escaped"] == "True" else ""]
+         for row in rows if row["ranks"] == "2"])
+
+
 def fem_ranks_table(bench: Path) -> str:
     """`make bench-fem NP=1`: 1 against 2 ranks where fem.csv holds both (fem.csv)."""
     rows = read_rows(bench / "fem.csv")
@@ -262,26 +281,32 @@ def calibration_table(bench: Path, name: str = "calibration.csv") -> str:
                           table)
 
 
+#: Zone margins [coarse cells] the coverage table shows.
+TABLE_MARGINS = ("0", "1")
+
+
 def zone_cover_table(bench: Path) -> str:
-    """`roughfriction bench zone`: per case and zone rule, the 2x run's contact nodes a zone of
-    each margin leaves uncovered, and the zone's share of the cells; with the coarse run's
-    lowest flat and the share of nodes it overlaps (zone_cover.csv)."""
+    """`roughfriction bench zone`: per case, the 2x run's contact nodes that each zone rule
+    with a margin of 0 and 1 cells leaves uncovered, with the zone's share of the cells; and
+    the coarse run's lowest flat and the share of nodes it overlaps (zone_cover.csv)."""
     rows = read_rows(bench / "zone_cover.csv")
-    margins = list(dict.fromkeys(row["margin"] for row in rows))
-    groups: dict[tuple[str, str], dict[str, dict]] = {}
+    rules = list(dict.fromkeys(row["rule"] for row in rows))
+    cases: dict[str, dict[tuple[str, str], dict]] = {}
     for row in rows:
-        groups.setdefault((row["case"], row["rule"]), {})[row["margin"]] = row
+        cases.setdefault(row["case"], {})[row["rule"], row["margin"]] = row
     table = []
-    for (case, rule), cells in groups.items():
-        first = cells[margins[0]]
+    for case, cells in cases.items():
+        first = next(iter(cells.values()))
         flat = (f"{1e9 * float(first['lowest_flat_m']):.0f} nm, "
                 f"{100 * float(first['overlap_share']):.0f} %")
-        table.append([case, flat, rule, first["fine_contact_nodes"]]
-                     + [f"{cells[m]['uncovered']} ({100 * float(cells[m]['zone_share']):.0f} %)"
-                        if m in cells else "–" for m in margins])
+        table.append([case, flat, first["fine_contact_nodes"]]
+                     + [f"{cells[key]['uncovered']} ({100 * float(cells[key]['zone_share']):.0f} %)"
+                        if key in cells else "–"
+                        for key in ((rule, m) for rule in rules for m in TABLE_MARGINS)])
     return markdown_table(["case", "lowest flat above the mean plane, nodes it overlaps",
-                           "zone from", "contact nodes of the finer run"]
-                          + [f"margin {m}" for m in margins], table)
+                           "contact nodes of the finer run"]
+                          + [f"{rule}, margin {m}" for rule in rules for m in TABLE_MARGINS],
+                          table)
 
 
 def memory_table(bench: Path) -> str:
@@ -304,6 +329,7 @@ TABLES: dict[str, Callable[[Path], str]] = {
     "fem.csv": fem_table,
     "fem.csv 128": partial(fem_table, only_n=128),
     "fem.csv ranks": fem_ranks_table,
+    "ladder.csv": ladder_table,
     "path.csv": path_table,
     "figures_n128.csv": figures_table,
     "error.csv": error_table,

@@ -8,13 +8,13 @@ import subprocess
 import time
 
 import pytest
+from roughfriction.studies.bench_fem import mpirun_environment
 
 
 def command_environment() -> dict:
     """This environment without an MPI launcher's variables (the child is a singleton, or starts
     its own ``mpirun``)."""
-    launcher = ("OMPI_", "PMIX_", "PMI_", "OPAL_", "HYDRA_")
-    env = {key: value for key, value in os.environ.items() if not key.startswith(launcher)}
+    env = mpirun_environment()
     env.update(OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
                OMP_NUM_THREADS="1", OPENBLAS_NUM_THREADS="1")
     return env

@@ -1,5 +1,6 @@
 """The FEM benchmark's table (studies/bench_fem.py), with a stand-in for the mpirun runs."""
 
+import pytest
 from roughfriction.scripts.bench import parse_case
 from roughfriction.studies import bench_fem as benchmark
 
@@ -117,3 +118,50 @@ def test_a_version_s_memory_column_replaces_its_own_and_keeps_the_others(tmp_pat
     assert rows[0]["case"] == "G5 N=64 F*=0.155 2 ranks 32784 dofs"
     with pytest.raises(InputError, match="not G5 N=128"):
         benchmark.add_memory_column(path, profile_of(128, 0.9), "0.24")
+
+
+def ladder_summary(values, error):
+    """A ``Ladder.summary()`` of levels with the mu_s ``values``."""
+    count = len(values)
+    return {"mu_s_error": error, "levels": {
+        "factor": [2**k for k in range(count)], "reduced_dofs": [100 * 4**k for k in range(count)],
+        "cells": [10 * 4**k for k in range(count)], "wall_s": [1.0 + k for k in range(count)],
+        "mu_s": list(values), "zone_escaped": [False] * count}}
+
+
+def test_a_ladder_gives_a_row_per_level_with_its_memory_and_error_on_the_finest():
+    case = {"surface": "G5", "load_star": 0.155, "n": 8, "ranks": 2, "ladder": "adaptive"}
+    rows = benchmark.ladder_rows(ladder_summary([0.3, 0.25, 0.24], 0.01),
+                                 {"peak_memory_gb": 1.5}, case, "0.25.0")
+    assert [row["level"] for row in rows] == [0, 1, 2]
+    assert [row["mu_s"] for row in rows] == [0.3, 0.25, 0.24]
+    assert [row["peak_memory_gb"] for row in rows] == [None, None, 1.5]
+    assert [row["mu_s_error"] for row in rows] == [None, None, 0.01]
+    assert all(row["ladder"] == "adaptive" and row["version"] == "0.25.0" for row in rows)
+
+
+def test_a_rerun_ladder_replaces_all_its_levels_and_keeps_the_other_ladders(tmp_path):
+    table = tmp_path / "ladder.csv"
+    case = {"surface": "G5", "load_star": 0.155, "n": 8, "ranks": 2}
+    for ladder, values in (("adaptive", [0.3, 0.25, 0.24]), ("uniform", [0.3, 0.26])):
+        benchmark.merge_ladder_rows(table, benchmark.ladder_rows(
+            ladder_summary(values, 0.01), {}, {**case, "ladder": ladder}, "0.25.0"))
+    benchmark.merge_ladder_rows(table, benchmark.ladder_rows(
+        ladder_summary([0.3, 0.2], 0.1), {}, {**case, "ladder": "adaptive"}, "0.25.0"))
+    rows = benchmark.read_table(table)
+    assert [(row["ladder"], row["level"], row["mu_s"]) for row in rows] == [
+        ("adaptive", "0", "0.3"), ("adaptive", "1", "0.2"), ("uniform", "0", "0.3"),
+        ("uniform", "1", "0.26")]
+
+
+@pytest.mark.fem
+def test_a_ladder_runs_under_mpirun_and_reports_its_levels(tmp_path, monkeypatch):
+    """The whole path: roughfriction fem --tol under mpirun (exit 3: the tolerance of 1e-12
+    is not met), its finest results file, the rows."""
+    monkeypatch.setattr(benchmark, "BENCH_DIR", tmp_path)
+    rows = benchmark.run_ladder_levels("G5", 0.155, 4, 1, 1, "adaptive")
+    assert [row["level"] for row in rows] == [0, 1]
+    assert rows[1]["reduced_dofs"] > rows[0]["reduced_dofs"] > 0
+    assert all(row["mu_s"] > 0.0 for row in rows)
+    assert rows[1]["mu_s_error"] == pytest.approx(abs(rows[1]["mu_s"] - rows[0]["mu_s"]))
+    assert rows[1]["peak_memory_gb"] > 0.0

@@ -1,12 +1,12 @@
 """The test suite's own hook: under mpirun, a test failing on one rank stops every rank."""
 
-import os
 import shutil
 import subprocess
 import sys
 from pathlib import Path
 
 import pytest
+from commands import command_environment
 
 ONE_RANK_FAILS = """
 from mpi4py import MPI
@@ -25,9 +25,7 @@ def test_a_test_failing_on_one_rank_ends_the_mpi_run_instead_of_hanging(tmp_path
     ever (the run would time out here)."""
     shutil.copy(Path(__file__).with_name("conftest.py"), tmp_path / "conftest.py")
     (tmp_path / "test_one_rank_fails.py").write_text(ONE_RANK_FAILS)
-    launcher = ("OMPI_", "PMIX_", "PMI_", "OPAL_", "HYDRA_")
-    env = {key: value for key, value in os.environ.items() if not key.startswith(launcher)}
-    env.update(OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1")
+    env = command_environment()
     command = ["mpirun", "-n", "2", "--oversubscribe", sys.executable, "-m", "pytest", "-q",
                "-p", "no:cacheprovider", str(tmp_path / "test_one_rank_fails.py")]
     done = subprocess.run(command, cwd=tmp_path, env=env, capture_output=True, text=True,

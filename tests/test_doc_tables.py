@@ -125,3 +125,22 @@ def test_error_frontier_names_the_reference_its_error_and_marks_contended_times(
     assert "2x: 0.2500 ± 20.0 %, 80 s † (60 its)" in a  # CPU share 0.5: marked
     assert "+0.3 % (first_slide=0.08)" in a
     assert "1x (no converged 2x): 0.4000 ± –" in b and b.endswith("| – |")
+
+
+LADDER_CSV = """surface,load_star,n,ranks,ladder,level,factor,reduced_dofs,cells,wall_s,mu_s,\
+zone_escaped,mu_s_error,peak_memory_gb,version
+G5,0.155,128,2,uniform,0,1,131088,43696,70.0,0.2266,False,,,0.25.0
+G5,0.155,128,2,uniform,1,2,917472,300000,1000.0,0.2059,False,0.0207,4.1,0.25.0
+G5,0.155,128,2,adaptive,1,2,637872,230884,600.0,0.2058,True,0.0208,3.0,0.25.0
+G5,0.155,128,2,adaptive,0,1,131088,43696,70.0,0.2266,False,,,0.25.0
+"""
+
+
+def test_the_ladder_table_lists_each_ladder_s_levels_in_order(tmp_path):
+    (tmp_path / "ladder.csv").write_text(LADDER_CSV)
+    lines = doc_tables.ladder_table(tmp_path).splitlines()[2:]
+    assert [line.split("|")[3:5] for line in lines] == [
+        [" adaptive ", " 1x "], [" adaptive ", " 2x "],
+        [" uniform ", " 1x "], [" uniform ", " 2x "]]
+    assert "| 637 872 | 600 s | 0.2058 | 0.0208 | 3.00 GB | yes |" in lines[1]
+    assert lines[0].endswith("| 0.2266 |  |  |  |")

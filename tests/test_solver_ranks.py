@@ -1,7 +1,6 @@
 """The same run on 1, 2 and 4 MPI ranks gives the same mu_s (each launched here with mpirun)."""
 
 import json
-import os
 import shutil
 import subprocess
 import sys
@@ -9,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from commands import command_environment
 
 pytestmark = pytest.mark.fem
 dolfinx = pytest.importorskip("dolfinx")
@@ -41,10 +41,7 @@ if MPI.COMM_WORLD.rank == 0:
 def run_on(ranks: int, method: str) -> list:
     """[converged, mu_s, contact nodes] of the case on ``ranks`` ranks with the linear solver
     ``method``."""
-    launcher = ("OMPI_", "PMIX_", "PMI_", "OPAL_", "HYDRA_")
-    env = {key: value for key, value in os.environ.items() if not key.startswith(launcher)}
-    env.update(OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
-               OMP_NUM_THREADS="1", OPENBLAS_NUM_THREADS="1")
+    env = command_environment()
     command = ["mpirun", "-n", str(ranks), "--oversubscribe", sys.executable, "-c",
                RUN.replace("{method}", method)]
     done = subprocess.run(command, cwd=ROOT, env=env, capture_output=True, text=True,
