@@ -66,6 +66,20 @@ def mpirun_environment() -> dict:
             if not key.startswith(LAUNCHER_VARIABLES) or key in ROOT_PERMISSION}
 
 
+def run_mpi(command: list[str]) -> int:
+    """Run an ``mpirun`` command line (:func:`mpirun_environment`; its progress and errors go to
+    stderr) and return its exit status."""
+    return subprocess.run(command, stdout=subprocess.DEVNULL, env=mpirun_environment()).returncode
+
+
+def read_record(path: Path) -> tuple[dict, dict, dict]:
+    """The summary, sizes and versions of a results file (``studies.results_file``)."""
+    with h5py.File(path) as h5:
+        sizes = {key: value.item() if isinstance(value, np.generic) else value
+                 for key, value in h5["sizes"].attrs.items()}
+        return json.loads(h5.attrs["summary"]), sizes, json.loads(h5.attrs["versions"])
+
+
 def case_stem(surface: str, load: float, n: int, ranks: int) -> str:
     """``<surface>_F<load>_N<n>_<ranks>ranks``: the file name of one benchmark case's output."""
     return f"{surface}_F{load:g}_N{n}_{ranks}ranks"
@@ -82,15 +96,11 @@ def run_size(surface: str, load: float, n: int, ranks: int, config: Path | None 
     if config is not None:
         command += ["--config", str(config)]
     output.unlink(missing_ok=True)
-    finished = subprocess.run(command, stdout=subprocess.DEVNULL,  # progress, errors: stderr
-                              env=mpirun_environment())
+    status = run_mpi(command)
     if not output.exists():
         raise RuntimeError(f"{surface} at F* = {load:g}, N = {n}: run failed (exit "
-                           f"{finished.returncode}) without results")
-    with h5py.File(output) as h5:
-        summary = json.loads(h5.attrs["summary"])
-        sizes = {key: value.item() if isinstance(value, np.generic) else value
-                 for key, value in h5["sizes"].attrs.items()}
+                           f"{status}) without results")
+    summary, sizes, _ = read_record(output)
     row = {"surface": surface, "load_star": load, "n": n, "ranks": ranks}
     row.update({key: sizes.get(key) for key in ("cells", "reduced_dofs", "linear_solver",
                                                 "peak_memory_gb")})
@@ -146,19 +156,13 @@ def run_ladder_levels(surface: str, load: float, n: int, ranks: int, max_level: 
     ``ladder_<ladder>_<case_stem>.h5``."""
     output = BENCH_DIR / f"ladder_{ladder}_{case_stem(surface, load, n, ranks)}.h5"
     output.unlink(missing_ok=True)
-    command = ladder_command(surface, load, n, ranks, max_level, ladder, output)
-    finished = subprocess.run(command, stdout=subprocess.DEVNULL,  # progress, errors: stderr
-                              env=mpirun_environment())
-    if finished.returncode not in (0, TOLERANCE_NOT_MET) or not output.exists():
+    status = run_mpi(ladder_command(surface, load, n, ranks, max_level, ladder, output))
+    if status not in (0, TOLERANCE_NOT_MET) or not output.exists():
         raise RuntimeError(f"{surface} at F* = {load:g}, N = {n}, {ladder} ladder: run failed "
-                           f"(exit {finished.returncode})")
-    with h5py.File(output) as h5:
-        summary = json.loads(h5.attrs["summary"])
-        sizes = {key: value.item() if isinstance(value, np.generic) else value
-                 for key, value in h5["sizes"].attrs.items()}
-        version = json.loads(h5.attrs["versions"]).get("roughfriction")
+                           f"(exit {status})")
+    summary, sizes, versions = read_record(output)
     case = {"surface": surface, "load_star": load, "n": n, "ranks": ranks, "ladder": ladder}
-    return ladder_rows(summary, sizes, case, version)
+    return ladder_rows(summary, sizes, case, versions.get("roughfriction"))
 
 
 def ladder_key(row: dict) -> tuple:

@@ -98,7 +98,7 @@ def ladder_table(bench: Path) -> str:
          "peak memory", "zone escaped"],
         [[case_label(row), row["n"], row["ladder"], f"{row['factor']}x",
           grouped_thousands(int(row["reduced_dofs"])), seconds(float(row["wall_s"])),
-          f"{float(row['mu_s']):.4f}",
+          f"{float(row['mu_s']):.6f}",
           f"{float(row['mu_s_error']):.4f}" if row["mu_s_error"] else "",
           f"{float(row['peak_memory_gb']):.2f} GB" if row["peak_memory_gb"] else "",
           "yes" if row["zone_escaped"] == "True" else ""]

@@ -142,5 +142,5 @@ def test_the_ladder_table_lists_each_ladder_s_levels_in_order(tmp_path):
     assert [line.split("|")[3:5] for line in lines] == [
         [" adaptive ", " 1x "], [" adaptive ", " 2x "],
         [" uniform ", " 1x "], [" uniform ", " 2x "]]
-    assert "| 637 872 | 600 s | 0.2058 | 0.0208 | 3.00 GB | yes |" in lines[1]
-    assert lines[0].endswith("| 0.2266 |  |  |  |")
+    assert "| 637 872 | 600 s | 0.205800 | 0.0208 | 3.00 GB | yes |" in lines[1]
+    assert lines[0].endswith("| 0.226600 |  |  |  |")
