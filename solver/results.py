@@ -8,6 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 from roughfriction.case import ZoneRefinement
 from roughfriction.geometry.adaptive import interpolated_in_cells, overlapped_nodes, surface_levels
+from roughfriction.geometry.surface import bilinear_rms_height
 from scipy import ndimage
 
 
@@ -99,12 +100,13 @@ def closest_gap(maps: dict) -> np.ndarray:
     return gap
 
 
-def near_flat_nodes(maps: dict, heights: np.ndarray, lowest_flat: float, gap_limit: float,
+def near_flat_nodes(maps: dict, heights: np.ndarray, lowest_flat: float,
                     refinement: ZoneRefinement | None = None) -> np.ndarray:
     """Where a mesh twice as fine may touch besides a run's contact, on its finest grid (bool):
     the nodes both overlapped by the rigid flat at the run's lowest height on the undeformed
     surface (``geometry.adaptive.overlapped_nodes``: the surface only moves down, so no other
-    node can touch a flat as high) and within ``gap_limit`` of it on the deformed one
+    node can touch a flat as high) and within :data:`CANDIDATE_GAP_SHARE` times the meshed
+    surface's RMS height (``geometry.surface.bilinear_rms_height``) of it on the deformed one
     (:func:`closest_gap`).
 
     Parameters
@@ -112,11 +114,10 @@ def near_flat_nodes(maps: dict, heights: np.ndarray, lowest_flat: float, gap_lim
     maps : dict
         The run's maps (``FemRun.maps``) on its finest grid.
     heights : numpy.ndarray
-        Own-grid heights of the surface [m], shape (n, n).
+        Heights of the surface [m] on its own grid (or on the finest grid of a uniform run:
+        the same bilinear surface), shape (n, n).
     lowest_flat : float
         The flat's lowest height above the mean plane in the run [m].
-    gap_limit : float
-        Largest deformed gap of a candidate [m].
     refinement : ZoneRefinement, optional
         The run's adaptive zone; there the gap at the grid points without a free node is
         interpolated over the surface cell they lie on
@@ -127,6 +128,7 @@ def near_flat_nodes(maps: dict, heights: np.ndarray, lowest_flat: float, gap_lim
         level = refinement.level
         levels = surface_levels(np.shape(heights)[0], level, refinement.zone)
         gap = interpolated_in_cells(gap, levels, level)
+    gap_limit = CANDIDATE_GAP_SHARE * bilinear_rms_height(heights)  # [m]
     return overlapped_nodes(heights, level, lowest_flat) & (gap < gap_limit)
 
 

@@ -22,7 +22,6 @@ from roughfriction.geometry.adaptive import (
 )
 from roughfriction.geometry.adaptive import estimated_memory_gb as adaptive_memory_gb
 from roughfriction.geometry.mesh import Block, blend_layers_needed, estimated_memory_gb, mesh_size
-from roughfriction.geometry.surface import bilinear_rms_height
 from roughfriction.solver.block import block_layout, build_block
 from roughfriction.solver.contact import ContactResponse, RigidFlat
 from roughfriction.solver.contact_law import ContactLaw
@@ -31,7 +30,7 @@ from roughfriction.solver.fields import FieldWriter
 from roughfriction.solver.linear import node_memory_available_gb
 from roughfriction.solver.periodic import PeriodicReduction, dof_node_grid_index
 from roughfriction.solver.progress import LoadStarted, RunStarted
-from roughfriction.solver.results import CANDIDATE_GAP_SHARE, FemResult, near_flat_nodes
+from roughfriction.solver.results import FemResult, near_flat_nodes
 from roughfriction.solver.solid import Solid
 from roughfriction.solver.stepping import LoadPath, Outcome
 
@@ -102,13 +101,9 @@ def check_memory(n: int, options: MeshOptions, comm: MPI.Comm,
 def near_flat(case: FemCase, fem_run: FemRun) -> np.ndarray:
     """Where a mesh of ``case`` twice as fine may touch besides the run's contact, on the
     run's finest grid (bool): ``solver.results.near_flat_nodes`` at the flat's lowest position
-    in the run, within ``CANDIDATE_GAP_SHARE`` times the meshed surface's RMS height of the
-    flat (``geometry.surface.bilinear_rms_height``)."""
-    heights = case.surface.heights
+    in the run."""
     lowest = min(record.flat_height for record in fem_run.result.records)
-    return near_flat_nodes(fem_run.maps, heights, lowest,
-                           CANDIDATE_GAP_SHARE * bilinear_rms_height(heights),
-                           case.mesh.refinement)
+    return near_flat_nodes(fem_run.maps, case.surface.heights, lowest, case.mesh.refinement)
 
 
 def stderr_progress(comm):

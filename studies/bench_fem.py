@@ -224,13 +224,10 @@ def row_key(row: dict) -> tuple[str, float, int, int]:
 
 def read_rows(path: Path) -> dict[tuple, dict]:
     """The rows of an existing benchmark table, by :func:`row_key` (empty if there is none)."""
-    if not path.exists():
-        return {}
     table = {}
-    with open(path, newline="") as file:
-        for row in csv.DictReader(file):
-            key = row_key(row)
-            table[key] = row | {"surface": key[0], "load_star": key[1]}
+    for row in read_table(path):
+        key = row_key(row)
+        table[key] = row | {"surface": key[0], "load_star": key[1]}
     return table
 
 
@@ -336,10 +333,7 @@ def add_memory_column(path: Path, profile: dict, version: str) -> None:
     InputError
         The file's rows are of another case than the profile's.
     """
-    rows = []
-    if Path(path).is_file():
-        with open(path, newline="") as stream:
-            rows = list(csv.DictReader(stream))
+    rows = read_table(Path(path))
     new = memory_column(profile, version)
     cases = {row["case"] for row in rows}
     if cases and cases != {new[0]["case"]}:

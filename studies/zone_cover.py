@@ -25,8 +25,7 @@ from roughfriction.geometry.adaptive import (
     surface_levels,
     uncovered_nodes,
 )
-from roughfriction.geometry.surface import bilinear_rms_height
-from roughfriction.solver.results import CANDIDATE_GAP_SHARE, near_flat_nodes, touched_nodes
+from roughfriction.solver.results import near_flat_nodes, touched_nodes
 from roughfriction.studies.bench_fem import write_csv
 
 #: Margins [cells of the coarse grid] tried by default.
@@ -71,8 +70,7 @@ def coverage_rows(coarse, fine, margins=MARGINS, label: str | None = None) -> li
         raise InputError("the two runs do not mesh the same surface")
     lowest = float(np.min(coarse.steps["flat_height"]))
     touched, overlapped = touched_nodes(coarse.maps), overlapped_nodes(heights, 0, lowest)
-    gap_limit = CANDIDATE_GAP_SHARE * bilinear_rms_height(heights)
-    near = near_flat_nodes(coarse.maps, heights, lowest, gap_limit)
+    near = near_flat_nodes(coarse.maps, heights, lowest)
     # per rule: the nodes dilated by the margin, and those that join undilated
     seeds = dict(zip(RULES, ((touched, None), (touched | overlapped, None), (touched, near)),
                      strict=True))
