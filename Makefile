@@ -17,8 +17,8 @@ MPIRUN := mpirun -n $(NP) --oversubscribe
 DEBIAN_PACKAGES := python3-dolfinx-real python3-petsc4py-real python3-mpi4py python3-gmsh \
 	python3-h5py python3-scipy python3-matplotlib python3-venv libopenblas0-serial
 
-.PHONY: setup test lint figures gallery bench bench-multiscale bench-fem bench-path bench-error \
-	bench-error-quick bench-profile bench-calibration stress clean
+.PHONY: setup test lint figures gallery bench bench-multiscale bench-fem bench-windows bench-path \
+	bench-error bench-error-quick bench-profile bench-calibration stress clean
 
 # --- set-up -----------------------------------------------------------------------------
 $(VENV)/.apt-done:
@@ -117,6 +117,17 @@ bench-fem: setup
 	  --max-level $(LADDER_LEVEL)
 	@mkdir -p docs/bench && cp results/bench/fem.csv results/bench/ladder.csv docs/bench/
 
+# The adaptive against the uniform ladder, levels 1x-4x, on $(WINDOW_CASES)'s $(WINDOW_N)^2 windows
+# $(WINDOWS) -> results/bench/ladder_windows.csv, copied to docs/bench/ (verification.md's table
+# "Adaptive against uniform levels"; ~10 min on 2 cores).
+WINDOW_CASES ?= G5:0.155 G5:0.93
+WINDOW_N ?= 8
+WINDOWS ?= 1 2 3
+bench-windows: setup
+	@$(VENV)/bin/roughfriction bench ladder --n $(WINDOW_N) --window $(WINDOWS) --ranks $(NP) \
+	  --case $(WINDOW_CASES) --max-level 2 --csv results/bench/ladder_windows.csv
+	@mkdir -p docs/bench && cp results/bench/ladder_windows.csv docs/bench/
+
 # The load path's error (studies/bench_fem.py): the headline cases on the default path and on a
 # 4x finer one (largest preload and sliding increments / 4), at N = 64 (`PATH_N=32` is quicker).
 PATH_N ?= 64
@@ -155,7 +166,7 @@ bench-calibration: setup
 	@$(MPIRUN) $(PY) -m roughfriction.studies.calibration \
 	  $(if $(CALIBRATION_N),docs/bench/calibration_n$(CALIBRATION_N).csv $(CALIBRATION_N),docs/bench/calibration.csv)
 
-bench: bench-multiscale bench-fem bench-path bench-error
+bench: bench-multiscale bench-fem bench-windows bench-path bench-error
 
 # Stress matrix (studies/stress.py): G1-G9 (psi 1.3-26) x F* 0.01-2.5, ST400 test3; on G5:
 # penalty, step size, tolerances, material extremes; G5 at F* 0.155 on 1, 2 and 4 ranks (each

@@ -51,6 +51,11 @@ def add_bench_commands(bench) -> None:
     ladder.add_argument("--ladder", nargs="+", choices=("adaptive", "uniform"),
                         default=["adaptive", "uniform"],
                         help="ladders to run (default both, the adaptive first)")
+    ladder.add_argument("--window", type=int, nargs="+", metavar="K",
+                        help="ladders of the surface's N x N windows K (1-based, as "
+                        "roughfriction fem --window) instead of the whole surface re-gridded")
+    ladder.add_argument("--csv", metavar="CSV", default=str(BENCH_DIR / "ladder.csv"),
+                        help="the table (default %(default)s)")
     ladder.set_defaults(run=cmd_bench_ladder)
 
     path = kinds.add_parser("path", help="mu_s on the default load path against a finer one, "
@@ -150,8 +155,9 @@ def cmd_bench_ladder(args) -> dict:
     if args.max_level < 1:
         raise InputError(f"--max-level must be at least 1, got {args.max_level}")
     cases = [parse_case(text) for text in args.case]
-    rows = benchmark_ladders(args.n, args.ranks, args.max_level, args.ladder, cases)
-    return {"runs": rows, "csv": str(BENCH_DIR / "ladder.csv")}
+    rows = benchmark_ladders(args.n, args.ranks, args.max_level, args.ladder, cases,
+                             args.window or (None,), Path(args.csv))
+    return {"runs": rows, "csv": args.csv}
 
 
 def cmd_bench_path(args) -> dict:

@@ -80,9 +80,11 @@ def read_record(path: Path) -> tuple[dict, dict, dict]:
         return json.loads(h5.attrs["summary"]), sizes, json.loads(h5.attrs["versions"])
 
 
-def case_stem(surface: str, load: float, n: int, ranks: int) -> str:
-    """``<surface>_F<load>_N<n>_<ranks>ranks``: the file name of one benchmark case's output."""
-    return f"{surface}_F{load:g}_N{n}_{ranks}ranks"
+def case_stem(surface: str, load: float, n: int, ranks: int, window: int | None = None) -> str:
+    """``<surface>_F<load>_N<n>[_W<window>]_<ranks>ranks``: the file name of one benchmark
+    case's output."""
+    part = "" if window is None else f"_W{window}"
+    return f"{surface}_F{load:g}_N{n}{part}_{ranks}ranks"
 
 
 def run_size(surface: str, load: float, n: int, ranks: int, config: Path | None = None,
@@ -110,8 +112,9 @@ def run_size(surface: str, load: float, n: int, ranks: int, config: Path | None 
     return row
 
 
-#: Columns of the ladder table (ladder.csv): one row per level of a ladder.
-LADDER_COLUMNS = ("surface", "load_star", "n", "ranks", "ladder", "level", "factor",
+#: Columns of the ladder table (ladder.csv): one row per level of a ladder; ``window`` is
+#: empty for the whole surface.
+LADDER_COLUMNS = ("surface", "load_star", "n", "window", "ranks", "ladder", "level", "factor",
                   "reduced_dofs", "cells", "wall_s", "mu_s", "zone_escaped", "mu_s_error",
                   "peak_memory_gb", "version")
 #: Exit status of ``roughfriction fem --tol`` when a limit stopped the ladder (results written).
@@ -119,13 +122,15 @@ TOLERANCE_NOT_MET = 3
 
 
 def ladder_command(surface: str, load: float, n: int, ranks: int, max_level: int, ladder: str,
-                   output: Path) -> list[str]:
-    """``roughfriction fem`` under mpirun running levels 0 .. ``max_level`` of a ladder (a
-    tolerance of 1e-12 is not met, so every level the limits allow runs; exit 3)."""
-    return ["mpirun", "-n", str(ranks), "--oversubscribe", sys.executable, "-m",
-            "roughfriction.scripts.cli", "fem", surface, "--load", str(load), "--n", str(n),
-            "--tol", "1e-12", "--max-level", str(max_level), "--ladder", ladder,
-            "--output", str(output)]
+                   output: Path, window: int | None = None) -> list[str]:
+    """``roughfriction fem`` under mpirun running levels 0 .. ``max_level`` of a ladder on the
+    built-in surface re-gridded to n x n, or on its n x n ``window`` (1-based; a tolerance of
+    1e-12 is not met, so every level the limits allow runs; exit 3)."""
+    command = ["mpirun", "-n", str(ranks), "--oversubscribe", sys.executable, "-m",
+               "roughfriction.scripts.cli", "fem", surface, "--load", str(load), "--n", str(n),
+               "--tol", "1e-12", "--max-level", str(max_level), "--ladder", ladder,
+               "--output", str(output)]
+    return command if window is None else command + ["--window", str(window)]
 
 
 def ladder_rows(summary: dict, sizes: dict, case: dict, version: str) -> list[dict]:
@@ -150,50 +155,56 @@ def ladder_rows(summary: dict, sizes: dict, case: dict, version: str) -> list[di
 
 
 def run_ladder_levels(surface: str, load: float, n: int, ranks: int, max_level: int,
-                      ladder: str) -> list[dict]:
+                      ladder: str, window: int | None = None) -> list[dict]:
     """Run levels 0 .. ``max_level`` of a ladder (:func:`ladder_command`) and return its rows
     (:func:`ladder_rows`); the finest level's record goes to
     ``ladder_<ladder>_<case_stem>.h5``."""
-    output = BENCH_DIR / f"ladder_{ladder}_{case_stem(surface, load, n, ranks)}.h5"
+    output = BENCH_DIR / f"ladder_{ladder}_{case_stem(surface, load, n, ranks, window)}.h5"
     output.unlink(missing_ok=True)
-    status = run_mpi(ladder_command(surface, load, n, ranks, max_level, ladder, output))
+    status = run_mpi(ladder_command(surface, load, n, ranks, max_level, ladder, output, window))
+    where = "" if window is None else f", window {window}"
     if status not in (0, TOLERANCE_NOT_MET) or not output.exists():
-        raise RuntimeError(f"{surface} at F* = {load:g}, N = {n}, {ladder} ladder: run failed "
-                           f"(exit {status})")
+        raise RuntimeError(f"{surface} at F* = {load:g}, N = {n}{where}, {ladder} ladder: run "
+                           f"failed (exit {status})")
     summary, sizes, versions = read_record(output)
-    case = {"surface": surface, "load_star": load, "n": n, "ranks": ranks, "ladder": ladder}
+    case = {"surface": surface, "load_star": load, "n": n, "window": window, "ranks": ranks,
+            "ladder": ladder}
     return ladder_rows(summary, sizes, case, versions.get("roughfriction"))
 
 
 def ladder_key(row: dict) -> tuple:
-    """(surface, F*, N, ranks, ladder, level) of a ladder row."""
-    return (row["surface"], float(row["load_star"]), int(row["n"]), int(row["ranks"]),
-            row["ladder"], int(row["level"]))
+    """(surface, F*, N, window, ranks, ladder, level) of a ladder row (window 0: the whole
+    surface)."""
+    return (row["surface"], float(row["load_star"]), int(row["n"]), int(row.get("window") or 0),
+            int(row["ranks"]), row["ladder"], int(row["level"]))
 
 
 def benchmark_ladders(sizes: list[int], ranks: int, max_level: int, ladders=("adaptive",),
-                      cases=HEADLINE_CASES) -> list[dict]:
-    """Every case, grid size and ladder in turn; ``ladder.csv`` is rewritten after each
-    ladder, keeping the rows of other cases, sizes, rank counts and ladders."""
+                      cases=HEADLINE_CASES, windows=(None,),
+                      table: Path | None = None) -> list[dict]:
+    """Every case, grid size, window (None: the whole surface) and ladder in turn; the table
+    (default ``ladder.csv``) is rewritten after each ladder, keeping the rows of other cases,
+    sizes, windows, rank counts and ladders."""
     BENCH_DIR.mkdir(parents=True, exist_ok=True)
-    table = BENCH_DIR / "ladder.csv"
+    table = BENCH_DIR / "ladder.csv" if table is None else table
     rows = []
     for surface, load in cases:
         for n in sizes:
-            for ladder in ladders:
-                new = run_ladder_levels(surface, load, n, ranks, max_level, ladder)
-                merge_ladder_rows(table, new)
-                rows += new
-                print(json.dumps(new), file=sys.stderr, flush=True)
+            for window in windows:
+                for ladder in ladders:
+                    new = run_ladder_levels(surface, load, n, ranks, max_level, ladder, window)
+                    merge_ladder_rows(table, new)
+                    rows += new
+                    print(json.dumps(new), file=sys.stderr, flush=True)
     return rows
 
 
 def merge_ladder_rows(table: Path, new: list[dict]) -> None:
     """Put one ladder's rows into the ladder table, replacing that ladder's earlier rows (all
     of its levels) and keeping the others; written whole or not at all."""
-    replaced = ladder_key(new[0])[:5]
+    replaced = ladder_key(new[0])[:6]
     kept = {ladder_key(row): row for row in read_table(table)
-            if ladder_key(row)[:5] != replaced}
+            if ladder_key(row)[:6] != replaced}
     kept |= {ladder_key(row): row for row in new}
     atomic_write(table, lambda temporary: write_csv([kept[key] for key in sorted(kept)],
                                                     Path(temporary), LADDER_COLUMNS))

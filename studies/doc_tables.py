@@ -105,6 +105,38 @@ def ladder_table(bench: Path) -> str:
          for row in rows if row["ranks"] == "2"])
 
 
+def window_ladder_table(bench: Path, name: str = "ladder_windows.csv") -> str:
+    """`make bench-windows`: per window and load, each finer level's mu_s on the uniform and
+    the adaptive ladder, their largest relative difference and the finest level's dofs."""
+    ladders: dict[tuple, dict] = {}
+    for row in read_rows(bench / name):
+        case = (row["surface"], int(row["n"]), int(row["window"]), float(row["load_star"]))
+        ladders.setdefault(case, {})[(row["ladder"], int(row["level"]))] = row
+    finest = max(level for levels in ladders.values() for _, level in levels)
+    levels = range(1, finest + 1)
+
+    def pair(rows: dict, level: int, key: str, text) -> str:
+        values = [rows.get((ladder, level)) for ladder in ("uniform", "adaptive")]
+        return " / ".join("–" if row is None else text(row[key]) for row in values)
+
+    def largest_difference(rows: dict) -> str:
+        differences = [abs(float(rows[("adaptive", level)]["mu_s"])
+                           / float(rows[("uniform", level)]["mu_s"]) - 1.0)
+                       for level in levels
+                       if ("adaptive", level) in rows and ("uniform", level) in rows]
+        return f"{100 * max(differences):.2f} %" if differences else "–"
+
+    return markdown_table(
+        ["window", "F*"] + [f"level {level} ({2**level}x): uniform / adaptive" for level in levels]
+        + ["largest difference", f"dofs at level {finest}: uniform / adaptive"],
+        [[f"{surface} {n}² window {window}", f"{load:g}"]
+         + [pair(rows, level, "mu_s", lambda value: f"{float(value):.6f}") for level in levels]
+         + [largest_difference(rows),
+            pair(rows, finest, "reduced_dofs", lambda value: grouped_thousands(int(value)))]
+         for (surface, n, window, load), rows in sorted(
+             ladders.items(), key=lambda item: (item[0][3], *item[0][:3]))])
+
+
 def fem_ranks_table(bench: Path) -> str:
     """`make bench-fem NP=1`: 1 against 2 ranks where fem.csv holds both (fem.csv)."""
     rows = read_rows(bench / "fem.csv")
@@ -330,6 +362,7 @@ TABLES: dict[str, Callable[[Path], str]] = {
     "fem.csv 128": partial(fem_table, only_n=128),
     "fem.csv ranks": fem_ranks_table,
     "ladder.csv": ladder_table,
+    "ladder_windows.csv": window_ladder_table,
     "path.csv": path_table,
     "figures_n128.csv": figures_table,
     "error.csv": error_table,

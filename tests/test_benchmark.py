@@ -1,5 +1,7 @@
 """The FEM benchmark's table (studies/bench_fem.py), with a stand-in for the mpirun runs."""
 
+from pathlib import Path
+
 import pytest
 from roughfriction.scripts.bench import parse_case
 from roughfriction.studies import bench_fem as benchmark
@@ -152,6 +154,26 @@ def test_a_rerun_ladder_replaces_all_its_levels_and_keeps_the_other_ladders(tmp_
     assert [(row["ladder"], row["level"], row["mu_s"]) for row in rows] == [
         ("adaptive", "0", "0.3"), ("adaptive", "1", "0.2"), ("uniform", "0", "0.3"),
         ("uniform", "1", "0.26")]
+
+
+def test_the_ladders_of_two_windows_are_kept_apart(tmp_path):
+    table = tmp_path / "ladder_windows.csv"
+    case = {"surface": "G5", "load_star": 0.155, "n": 8, "ranks": 2, "ladder": "uniform"}
+    for window, values in ((1, [0.3, 0.25]), (2, [0.2, 0.21]), (None, [0.4, 0.3])):
+        benchmark.merge_ladder_rows(table, benchmark.ladder_rows(
+            ladder_summary(values, 0.01), {}, {**case, "window": window}, "0.26.0"))
+    rows = benchmark.read_table(table)
+    assert [(row["window"], row["level"], row["mu_s"]) for row in rows] == [
+        ("", "0", "0.4"), ("", "1", "0.3"), ("1", "0", "0.3"), ("1", "1", "0.25"),
+        ("2", "0", "0.2"), ("2", "1", "0.21")]
+
+
+def test_a_window_s_ladder_runs_fem_on_that_window_into_its_own_file():
+    whole = benchmark.ladder_command("G5", 0.155, 8, 2, 2, "adaptive", Path("out.h5"))
+    window = benchmark.ladder_command("G5", 0.155, 8, 2, 2, "adaptive", Path("out.h5"), 3)
+    assert "--window" not in whole and window == whole + ["--window", "3"]
+    assert benchmark.case_stem("G5", 0.155, 8, 2, 3) == "G5_F0.155_N8_W3_2ranks"
+    assert benchmark.case_stem("G5", 0.155, 8, 2) == "G5_F0.155_N8_2ranks"
 
 
 @pytest.mark.fem

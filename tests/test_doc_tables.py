@@ -144,3 +144,26 @@ def test_the_ladder_table_lists_each_ladder_s_levels_in_order(tmp_path):
         [" uniform ", " 1x "], [" uniform ", " 2x "]]
     assert "| 637 872 | 600 s | 0.205800 | 0.0208 | 3.00 GB | yes |" in lines[1]
     assert lines[0].endswith("| 0.226600 |  |  |  |")
+
+
+WINDOWS_CSV = """surface,load_star,n,window,ranks,ladder,level,factor,reduced_dofs,cells,wall_s,\
+mu_s,zone_escaped,mu_s_error,peak_memory_gb,version
+G5,0.93,8,1,2,uniform,2,4,26592,9000,20.0,0.226131,False,0.01,0.6,0.26.0
+G5,0.155,8,2,2,adaptive,1,2,5000,2000,8.0,0.2035,False,,,0.26.0
+G5,0.155,8,2,2,adaptive,2,4,14388,5000,15.0,0.2000,False,0.003,0.5,0.26.0
+G5,0.155,8,2,2,uniform,1,2,6000,2400,9.0,0.2000,False,,,0.26.0
+G5,0.155,8,2,2,uniform,2,4,26592,9000,20.0,0.2000,False,0.0035,0.6,0.26.0
+G5,0.93,8,1,2,adaptive,2,4,24960,8800,19.0,0.226130,False,0.01,0.6,0.26.0
+"""
+
+
+def test_the_window_table_pairs_uniform_and_adaptive_levels_and_their_largest_difference(
+        tmp_path):
+    (tmp_path / "ladder_windows.csv").write_text(WINDOWS_CSV)
+    lines = doc_tables.window_ladder_table(tmp_path).splitlines()
+    assert lines[0] == ("| window | F* | level 1 (2x): uniform / adaptive | level 2 (4x): uniform"
+                        " / adaptive | largest difference | dofs at level 2: uniform / adaptive |")
+    assert lines[2] == ("| G5 8² window 2 | 0.155 | 0.200000 / 0.203500 | 0.200000 / 0.200000 "
+                        "| 1.75 % | 26 592 / 14 388 |")
+    assert lines[3] == ("| G5 8² window 1 | 0.93 | – / – | 0.226131 / 0.226130 | 0.00 % "
+                        "| 26 592 / 24 960 |")
