@@ -119,7 +119,7 @@ bench-fem: setup
 
 # The adaptive against the uniform ladder, levels 1x-4x, on $(WINDOW_CASES)'s $(WINDOW_N)^2 windows
 # $(WINDOWS) -> results/bench/ladder_windows.csv, copied to docs/bench/ (verification.md's table
-# "Adaptive against uniform levels"; ~10 min on 2 cores).
+# "Adaptive against uniform levels"; ~7 min on 2 cores).
 WINDOW_CASES ?= G5:0.155 G5:0.93
 WINDOW_N ?= 8
 WINDOWS ?= 1 2 3
