@@ -29,38 +29,56 @@ def atomic_write(path: Path, write) -> None:
             os.unlink(tmp)
 
 
-def _existing_ancestor(path: Path) -> Path:
-    """``path`` itself or its nearest ancestor that exists (as any kind of file)."""
-    path = Path(os.path.abspath(path))
-    while not os.path.lexists(path) and path != path.parent:
-        path = path.parent
-    return path
+#: Suffixes of a results file (HDF5).
+RESULTS_SUFFIXES = (".h5", ".hdf5")
 
 
-def _check_creatable_directory(directory: Path, what: str) -> None:
-    """Refuse a directory that cannot be created or written in: an existing one must be
-    writable, a missing one needs its nearest existing ancestor to be a writable directory."""
-    ancestor = _existing_ancestor(directory)
-    if not ancestor.is_dir():
-        raise InputError(f"cannot write {what}: {ancestor} is not a directory")
-    if not os.access(ancestor, os.W_OK | os.X_OK):
-        raise InputError(f"cannot write {what}: {ancestor} is not writable")
+def _probe_directory(directory: Path, what: str) -> None:
+    """Refuse ``directory`` unless it exists, is a directory and a file can be created in it
+    (a file is made and removed: permission bits do not tell, e.g. in /proc or on a read-only
+    mount)."""
+    if not directory.exists():
+        raise InputError(f"cannot write {what}: folder {directory} does not exist (create it "
+                         "first, or name another path)")
+    if not directory.is_dir():
+        raise InputError(f"cannot write {what}: {directory} is not a directory")
+    try:
+        fd, probe = tempfile.mkstemp(dir=directory, prefix=".roughfriction-probe-")
+    except OSError as error:
+        raise InputError(f"cannot write {what}: {error.strerror or error} in {directory}") \
+            from None
+    os.close(fd)
+    os.unlink(probe)
 
 
 def check_writable_file(path: Path) -> None:
     """Raise :class:`InputError` unless a file can be written at ``path`` by
-    :func:`atomic_write` (its folder exists or can be created, and is writable; ``path`` is not
-    a directory). Nothing is created."""
+    :func:`atomic_write`: its folder exists and takes a new file, and ``path`` is not a
+    directory. Leaves nothing behind."""
     path = Path(path)
     if path.is_dir():
         raise InputError(f"cannot write {path}: it is a directory")
-    _check_creatable_directory(path.parent, str(path))
+    _probe_directory(Path(os.path.abspath(path)).parent, str(path))
+
+
+def check_results_file(path: Path) -> None:
+    """:func:`check_writable_file`, for an HDF5 results file: its suffix must be one of
+    :data:`RESULTS_SUFFIXES`."""
+    path = Path(path)
+    check_writable_file(path)
+    if path.suffix.lower() not in RESULTS_SUFFIXES:
+        raise InputError(f"results file {path}: an HDF5 file is written, name it "
+                         f"{path.with_suffix('.h5').name} ({' or '.join(RESULTS_SUFFIXES)})")
 
 
 def check_writable_directory(directory: Path) -> None:
-    """Raise :class:`InputError` unless files can be written in ``directory`` (it exists or can
-    be created, and is writable). Nothing is created."""
-    _check_creatable_directory(Path(directory), f"in {directory}")
+    """Raise :class:`InputError` unless files can be written in ``directory``: it exists and
+    takes a new file, or it is missing and its parent does. Leaves nothing behind."""
+    directory = Path(os.path.abspath(directory))
+    if directory.exists():
+        _probe_directory(directory, f"in {directory}")
+    else:
+        _probe_directory(directory.parent, f"in {directory}")
 
 
 def _one_line(error: OSError) -> str:

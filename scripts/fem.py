@@ -47,7 +47,7 @@ from pathlib import Path
 
 from roughfriction.case import FemCase, Loading, MeshOptions, SolverOptions
 from roughfriction.errors import ConvergenceError, InputError
-from roughfriction.files import agreed, check_writable_directory, check_writable_file
+from roughfriction.files import agreed, check_results_file, check_writable_directory
 from roughfriction.geometry.surface import Surface, surface_on_fem_grid, validate_grid_points
 from roughfriction.material import Material
 from roughfriction.solver.results import CANDIDATE_GAP_SHARE
@@ -255,12 +255,18 @@ def run_labels(args) -> tuple[str, ...]:
         ("uniform",) if uniform else ())
 
 
+def request_digest(case: FemCase, labels: tuple[str, ...] = ()) -> str:
+    """SHA-256 (hex) of what a ``fem`` command asks for: the case's inputs (surface heights
+    and spacing, load, material, mesh and solver options) and ``labels`` (:func:`run_labels`)."""
+    defined = json.dumps({"inputs": case.inputs(), "labels": list(labels)}, sort_keys=True)
+    return hashlib.sha256(defined.encode()).hexdigest()
+
+
 def default_output(case: FemCase, labels: tuple[str, ...] = ()) -> Path:
     """``results/fem/<surface>_F<load>_N<n>[_elastic][_normal][_<label>...]_<digest>.h5``.
 
-    The stem is for reading; the digest (the first :data:`DIGEST_LENGTH` hex digits of the
-    SHA-256 of the case's inputs and ``labels``: surface heights and spacing, load, material,
-    mesh and solver options) tells apart runs the stem does not (another window or re-gridding,
+    The stem is for reading; the digest (the first :data:`DIGEST_LENGTH` hex digits of
+    :func:`request_digest`) tells apart runs the stem does not (another window or re-gridding,
     a case file, ``--refine``), so two different runs never share a name.
     """
     name = re.sub(r"[^A-Za-z0-9.+-]", "_", case.surface.name or "surface")
@@ -268,19 +274,20 @@ def default_output(case: FemCase, labels: tuple[str, ...] = ()) -> Path:
                                            ("normal", case.loading.normal_only)) if chosen]
     stem = "_".join([name, f"F{case.loading.load_star:g}", f"N{case.surface.n}", *options,
                      *labels])
-    defined = json.dumps({"inputs": case.inputs(), "labels": list(labels)}, sort_keys=True)
-    digest = hashlib.sha256(defined.encode()).hexdigest()[:DIGEST_LENGTH]
-    return RESULTS_DIR / f"{stem}_{digest}.h5"
+    return RESULTS_DIR / f"{stem}_{request_digest(case, labels)[:DIGEST_LENGTH]}.h5"
 
 
 @dataclass(frozen=True)
 class FemOutputs:
-    """Where a ``fem`` command writes.
+    """Where a ``fem`` command writes, and what it was asked for.
 
     Attributes
     ----------
     results : pathlib.Path
         The results file (with ``--refine``: of the finer mesh).
+    request : str
+        :func:`request_digest` of the command: stored in the results file, so that the same
+        command run again finds its result.
     coarse : pathlib.Path or None
         With ``--refine``: the coarse mesh's results file.
     fields : pathlib.Path or None
@@ -288,24 +295,59 @@ class FemOutputs:
     """
 
     results: Path
+    request: str
     coarse: Path | None = None
     fields: Path | None = None
 
     @classmethod
     def from_args(cls, args, case: FemCase) -> FemOutputs:
         """The outputs named by the command line (default results name: :func:`default_output`
-        of ``case``, the case as meshed)."""
-        results = Path(args.output) if args.output else default_output(case, run_labels(args))
+        of ``case``, the case as meshed, whose folder is created; a folder named by the user
+        must exist)."""
+        labels = run_labels(args)
+        if not args.output:
+            RESULTS_DIR.mkdir(parents=True, exist_ok=True)
+        results = Path(args.output) if args.output else default_output(case, labels)
         coarse = (results.with_name(f"{results.stem}_coarse{results.suffix}")
                   if args.refine else None)
-        return cls(results, coarse, Path(args.xdmf) if args.xdmf else None)
+        return cls(results, request_digest(case, labels), coarse,
+                   Path(args.xdmf) if args.xdmf else None)
+
+    def reusable(self, overwrite: bool) -> dict | None:
+        """The stored summary when the results file holds this request, converged, from this
+        physics (the command prints it instead of running); None when there is none to reuse or
+        ``overwrite``. A results file of another request, of other physics or unconverged is
+        refused (:class:`InputError`, naming which) unless ``overwrite``; so is any file
+        when fields are asked for (``--xdmf``: the run is needed)."""
+        from roughfriction.studies.cache import physics_version
+        from roughfriction.studies.results_file import stored_run
+
+        if overwrite or not self.results.is_file() or self.fields is not None:
+            return None
+        try:
+            stored = stored_run(self.results)
+        except OSError:
+            raise InputError(f"{self.results} exists and is not a results file: pass "
+                             "--overwrite to replace it, or name another --output") from None
+        physics = physics_version()
+        if stored.request != self.request:
+            why = "holds another case"
+        elif stored.physics != physics:
+            why = (f"is stale: computed by other physics ({stored.physics[:12] or 'unknown'}, "
+                   f"this code {physics[:12]})")
+        elif not stored.converged or stored.summary.get("error_tolerance_met") is False:
+            why = "holds this case unconverged or short of its tolerance"
+        else:
+            return stored.summary
+        raise InputError(f"{self.results} {why}: pass --overwrite to recompute, or name "
+                         "another --output")
 
     def check(self, overwrite: bool) -> None:
         """Refuse (:class:`InputError`) an output that cannot be written, or that exists when
-        ``overwrite`` is false. Creates nothing."""
+        ``overwrite`` is false. Creates nothing but the default results folder."""
         existing = [path for path in (self.results, self.coarse) if path is not None]
         for path in existing:
-            check_writable_file(path)
+            check_results_file(path)
         if self.fields is not None:
             check_writable_directory(self.fields)
             existing.append(self.fields / "fields.xdmf")
@@ -337,6 +379,13 @@ def run_fem(args) -> dict:
     limits = ladder_limits(args, comm)
     case = case_from_args(args, agreed(comm, lambda: surface_from_args(args)), comm)
     outputs = FemOutputs.from_args(args, case)
+    stored = None if args.msh else agreed(comm, lambda: outputs.reusable(args.overwrite))
+    if stored is not None:
+        if comm.rank == 0:
+            print(f"reused: {outputs.results} holds this case, computed by this code "
+                  "(--overwrite recomputes it)", file=sys.stderr)
+        _warn_unresolved(stored, comm)
+        return stored
     agreed(comm, lambda: outputs.check(args.overwrite))
     output = outputs.results
     meshed = {"psi_meshed": surface_statistics(case.surface, case.material).psi}
@@ -346,7 +395,7 @@ def run_fem(args) -> dict:
                         comm)
     if limits is None:
         outcome = run(case, comm, xdmf_directory=outputs.fields)
-        _save(output, case, outcome, comm, meshed)
+        _save(output, case, outcome, comm, meshed, outputs.request)
         summary = outcome.result.summary()
         _warn_unresolved(summary, comm)
         return {**summary, **meshed}
@@ -397,12 +446,13 @@ def run_levels(case: FemCase, outputs: FemOutputs, limits: LadderLimits, meshed:
         summary = fem_run.result.summary()
         finest.update(summary)
         path = outputs.coarse if outputs.coarse is not None and level == 0 else outputs.results
+        request = outputs.request if path == outputs.results else ""  # the coarse answers none
         if not fem_run.result.converged:
-            _save(path, level_case, fem_run, comm, meshed)  # raises ConvergenceError
+            _save(path, level_case, fem_run, comm, meshed, request)  # raises ConvergenceError
 
         def save(ladder) -> None:
             extra = meshed if path == outputs.coarse else {**ladder.summary(), **meshed}
-            _save(path, level_case, fem_run, comm, extra)
+            _save(path, level_case, fem_run, comm, extra, request)
 
         key = "area_ratio_normal" if level_case.loading.normal_only else "mu_s"
         sizes = fem_run.result.sizes
@@ -418,12 +468,13 @@ def run_levels(case: FemCase, outputs: FemOutputs, limits: LadderLimits, meshed:
     return summary
 
 
-def _save(output: Path, case: FemCase, fem_run, comm, extra: dict) -> None:
-    """Write the run's results file (``extra``: added to its summary), name it on stderr
-    (rank 0), and refuse an unconverged run (:func:`_check_converged`)."""
+def _save(output: Path, case: FemCase, fem_run, comm, extra: dict, request: str) -> None:
+    """Write the run's results file (``extra``: added to its summary; ``request``: the
+    command's :func:`request_digest`), name it on stderr (rank 0), and refuse an unconverged
+    run (:func:`_check_converged`)."""
     from roughfriction.studies.results_file import save_run
 
-    save_run(output, case, fem_run, comm, extra=extra)
+    save_run(output, case, fem_run, comm, extra=extra, request=request)
     if comm.rank == 0:
         print(f"results: {output}", file=sys.stderr)
     _check_converged(fem_run, output)

@@ -15,7 +15,7 @@ from pathlib import Path
 
 from roughfriction.case import FemCase, Loading, MeshOptions, SolverOptions
 from roughfriction.errors import ConvergenceError, InputError
-from roughfriction.files import agreed, check_writable_file
+from roughfriction.files import agreed, check_results_file
 from roughfriction.geometry.generate import builtin_names, gaussian_surface, self_affine_surface
 from roughfriction.geometry.readers import load_surface
 from roughfriction.geometry.statistics import surface_statistics
@@ -156,8 +156,8 @@ def run_fem(case: FemCase, output=None, *, overwrite: bool = False, comm=None, p
 
 def writable_output(path: Path, overwrite: bool) -> Path:
     """``path``, once a results file can be written there without replacing one unless
-    ``overwrite`` (:func:`roughfriction.files.check_writable_file`); else InputError."""
-    check_writable_file(path)
+    ``overwrite`` (:func:`roughfriction.files.check_results_file`); else InputError."""
+    check_results_file(path)
     if path.exists() and not overwrite:
         raise InputError(f"results file {path} exists; pass overwrite=True to replace it")
     return path

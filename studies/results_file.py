@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import json
 import subprocess
-from dataclasses import fields
+from dataclasses import dataclass, fields
 from pathlib import Path
 
 import numpy as np
@@ -19,7 +19,7 @@ from roughfriction.files import agreed, atomic_write
 from roughfriction.solver.results import FemResult, StepRecord
 
 #: Layout version of a results file (bumped when what a file holds changes; it keys the cache).
-FILE_FORMAT = 1
+FILE_FORMAT = 2
 
 
 def package_versions() -> dict:
@@ -50,12 +50,13 @@ def git_revision() -> str:
 
 
 def write_hdf5(path: Path, inputs: dict, result: FemResult, maps: dict, note: str = "",
-               extra: dict | None = None) -> None:
+               extra: dict | None = None, request: str = "") -> None:
     """Write a run to HDF5 atomically (temporary file, then rename). Call on one rank.
 
     Layout: root attributes ``inputs``, ``summary`` (JSON), ``versions``, ``git``,
-    ``converged``, ``message``; group ``steps`` with one dataset per :class:`StepRecord` field;
-    group ``timings`` and ``sizes`` as attributes; group ``maps`` with N x N contact maps.
+    ``physics`` (``studies.cache.physics_version``), ``request``, ``converged``, ``message``;
+    group ``steps`` with one dataset per :class:`StepRecord` field; groups ``timings`` and
+    ``sizes`` as attributes; group ``maps`` with N x N contact maps.
 
     Parameters
     ----------
@@ -71,27 +72,34 @@ def write_hdf5(path: Path, inputs: dict, result: FemResult, maps: dict, note: st
         How the run was obtained, if not the usual way (root attribute ``note``).
     extra : dict, optional
         Added to the summary (e.g. the discretisation error estimate ``mu_s_error``).
+    request : str
+        What the command asked for, as a digest (``scripts.fem.request_digest``): a re-run of
+        the same command finds its result by it.
     """
     summary = {**result.summary(), **(extra or {})}
+    provenance = {"request": request, "note": note}
     atomic_write(Path(path), lambda temporary: _write_hdf5(temporary, inputs, result, summary,
-                                                           maps, note))
+                                                           maps, provenance))
 
 
 def _write_hdf5(path, inputs: dict, result: FemResult, summary: dict, maps: dict,
-                note: str) -> None:
+                provenance: dict) -> None:
     import h5py
+    from roughfriction.studies.cache import physics_version  # the cache writes through here
 
     # Provenance first: importing the FEM stack while the file is open leaves it locked.
-    versions, revision = package_versions(), git_revision()
+    versions, revision, physics = package_versions(), git_revision(), physics_version()
     with h5py.File(path, "w") as h5:
         h5.attrs["inputs"] = json.dumps(inputs)
         h5.attrs["summary"] = json.dumps(summary)
         h5.attrs["versions"] = json.dumps(versions)
         h5.attrs["git"] = revision
+        h5.attrs["physics"] = physics
+        h5.attrs["request"] = provenance["request"]
         h5.attrs["converged"] = result.converged
         h5.attrs["message"] = result.message
-        if note:
-            h5.attrs["note"] = note
+        if provenance["note"]:
+            h5.attrs["note"] = provenance["note"]
         steps = h5.create_group("steps")
         for field in fields(StepRecord):
             values = [getattr(record, field.name) for record in result.records]
@@ -117,8 +125,41 @@ def run_version(path: Path) -> str:
     return f"roughfriction {versions.get('roughfriction', 'unknown')} ({revision})"
 
 
+@dataclass(frozen=True)
+class StoredRun:
+    """What a results file says about itself, read without its steps and maps.
+
+    Attributes
+    ----------
+    request : str
+        The command's request digest ("" when the file was not written by ``fem``).
+    physics : str
+        The physics version of the code that wrote it ("" for files older than the record).
+    converged : bool
+        Whether the run converged.
+    summary : dict
+        The run's JSON summary, as the command printed it.
+    """
+
+    request: str
+    physics: str
+    converged: bool
+    summary: dict
+
+
+def stored_run(path: Path) -> StoredRun:
+    """The :class:`StoredRun` of the results file at ``path``."""
+    import h5py
+
+    with h5py.File(path, "r") as h5:
+        attrs = h5.attrs
+        return StoredRun(str(attrs.get("request", "")), str(attrs.get("physics", "")),
+                         bool(attrs.get("converged", False)),
+                         json.loads(attrs.get("summary", "{}")))
+
+
 def save_run(path: Path, case: FemCase, fem_run, comm, note: str = "",
-             extra: dict | None = None) -> None:
+             extra: dict | None = None, request: str = "") -> None:
     """Write a run's results file (rank 0 writes, atomically; every rank waits for it, and a
     failure to write raises :class:`~roughfriction.errors.InputError` on every rank).
 
@@ -143,10 +184,12 @@ def save_run(path: Path, case: FemCase, fem_run, comm, note: str = "",
         Added to the summary (``fem``: the psi of the meshed surface; with ``--tol`` or
         ``--refine`` the discretisation error estimate and the per-level columns ``levels``,
         :meth:`studies.refinement.Ladder.summary`).
+    request : str
+        The command's request digest (:func:`write_hdf5`).
     """
     def write() -> None:
         if comm.rank == 0:
             maps = {"surface_heights": case.surface.heights, **fem_run.maps}
-            write_hdf5(path, case.inputs(), fem_run.result, maps, note, extra)
+            write_hdf5(path, case.inputs(), fem_run.result, maps, note, extra, request)
 
     agreed(comm, write)

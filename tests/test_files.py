@@ -1,11 +1,14 @@
 """Output files: atomic writes, output paths checked before a run, failures agreed by every
 rank (core/files.py)."""
 
+from pathlib import Path
+
 import pytest
 from roughfriction.errors import InputError
 from roughfriction.files import (
     agreed,
     atomic_write,
+    check_results_file,
     check_writable_directory,
     check_writable_file,
 )
@@ -39,14 +42,38 @@ def test_a_failure_here_is_one_line_on_every_rank(tmp_path):
 def test_unwritable_outputs_are_found_without_creating_anything(tmp_path):
     (tmp_path / "a_file").write_text("")
     with pytest.raises(InputError, match="a_file is not a directory"):
-        check_writable_file(tmp_path / "a_file" / "deeper" / "run.h5")
+        check_writable_file(tmp_path / "a_file" / "run.h5")
     with pytest.raises(InputError, match="a_file is not a directory"):
         check_writable_directory(tmp_path / "a_file" / "fields")
     with pytest.raises(InputError, match="is a directory"):
         check_writable_file(tmp_path)
-    check_writable_file(tmp_path / "new" / "deeper" / "run.h5")
-    check_writable_directory(tmp_path / "new" / "fields")
+    check_writable_file(tmp_path / "run.h5")
+    check_writable_directory(tmp_path / "fields")
+    check_writable_directory(tmp_path)
     assert sorted(path.name for path in tmp_path.iterdir()) == ["a_file"]
+
+
+def test_a_missing_folder_is_refused_not_created(tmp_path):
+    with pytest.raises(InputError, match=r"folder .*nonexistent/dir does not exist"):
+        check_writable_file(tmp_path / "nonexistent" / "dir" / "x.h5")
+    with pytest.raises(InputError, match=r"folder .*nonexistent does not exist"):
+        check_writable_directory(tmp_path / "nonexistent" / "fields")
+    assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.skipif(not Path("/proc").is_dir(), reason="needs /proc")
+def test_a_folder_that_takes_no_file_is_found_although_its_mode_says_writable():
+    with pytest.raises(InputError, match="^cannot write /proc/nope.h5: "):
+        check_writable_file(Path("/proc/nope.h5"))
+    with pytest.raises(InputError, match="^cannot write in /proc/fields: "):
+        check_writable_directory(Path("/proc/fields"))
+
+
+def test_a_results_file_must_be_named_as_hdf5(tmp_path):
+    with pytest.raises(InputError, match=r"res.csv: an HDF5 file is written, name it res.h5"):
+        check_results_file(tmp_path / "res.csv")
+    check_results_file(tmp_path / "res.h5")
+    check_results_file(tmp_path / "res.HDF5")
 
 
 def test_a_failed_write_leaves_the_previous_file(tmp_path):

@@ -225,19 +225,27 @@ def test_unresolved_patches_are_warned_about_in_one_line():
         assert unresolved_warning(summary) is None
 
 
-@pytest.mark.parametrize("flags", [["--output", "a_file/run.h5"], ["--xdmf", "a_file/fields"]])
-def test_an_unwritable_output_is_refused_before_the_run(flags, tmp_path, monkeypatch, capsys):
-    """An output under a file: one line and exit 2 before anything is solved (not a traceback
-    after the whole run)."""
+@pytest.mark.parametrize("flags, message", [
+    (["--output", "a_file/run.h5"], "a_file is not a directory"),
+    (["--xdmf", "a_file/fields"], "a_file is not a directory"),
+    (["--output", "/proc/nope.h5"], "cannot write /proc/nope.h5: "),
+    (["--output", "missing/dir/x.h5"], "missing/dir does not exist (create it first"),
+    (["--output", "res.csv"], "an HDF5 file is written, name it res.h5"),
+])
+def test_an_unwritable_output_is_refused_before_the_run(flags, message, tmp_path, monkeypatch,
+                                                        capsys):
+    """An output under a file, in a folder that takes no file, in a missing folder or not
+    named .h5: one line and exit 2 before anything is solved, nothing created."""
     from roughfriction.solver import run as solver_run
 
     monkeypatch.chdir(tmp_path)
     (tmp_path / "a_file").write_text("")
     monkeypatch.setattr(solver_run, "run", lambda *args, **kwargs: pytest.fail("solved"))
-    assert main(["G5", "--n", "8", "--load", "0.3", *flags]) == 2
+    assert main(["G5", "--n", "8", "--window", "1", "--load", "0.3", *flags]) == 2
     error = capsys.readouterr().err.strip().splitlines()
-    assert error[-1].startswith("roughfriction: error: cannot write")
-    assert "a_file is not a directory" in error[-1]
+    assert len(error) == 1 and error[0].startswith("roughfriction: error: ")
+    assert message in error[0]
+    assert not (tmp_path / "missing").exists()
 
 
 def test_default_names_tell_apart_what_defines_a_run():
@@ -263,25 +271,58 @@ def test_default_names_tell_apart_what_defines_a_run():
 
 
 @pytest.mark.fem
-def test_an_existing_results_file_is_replaced_only_when_asked(tmp_path, monkeypatch, capsys):
-    """A re-grid and a window of the same N are two files; running the window again is refused
-    in one line (the files untouched) unless --overwrite."""
+def test_a_re_run_reuses_its_result_and_overwrite_recomputes(tmp_path, monkeypatch, capsys):
+    """A re-grid and a window of the same N are two files; running the window again prints
+    the stored result (exit 0, the file untouched, no solve); --overwrite recomputes it."""
+    from roughfriction.solver import run as solver_run
+
     monkeypatch.chdir(tmp_path)
     common = ["G5", "--n", "8", "--load", "0.3", "--elastic", "--normal-only", "--json"]
     window = [*common, "--window", "best"]
     assert main(common) == 0
     assert main(window) == 0
+    first = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
     files = sorted((tmp_path / "results" / "fem").glob("*.h5"))
     assert len(files) == 2
-    capsys.readouterr()
     stamps = {path: path.stat().st_mtime_ns for path in files}
-    assert main(window) == 2
-    error = capsys.readouterr().err.strip().splitlines()
-    assert len(error) == 1 and "already exists: pass --overwrite" in error[0]
+    solve = solver_run.run
+    monkeypatch.setattr(solver_run, "run", lambda *args, **kwargs: pytest.fail("solved"))
+    assert main(window) == 0
+    captured = capsys.readouterr()
+    assert json.loads(captured.out) == first
+    assert captured.err.startswith("reused: results/fem/G5_F0.3_N8_elastic_normal_windowbest_")
     assert {path: path.stat().st_mtime_ns for path in files} == stamps
+    monkeypatch.setattr(solver_run, "run", solve)
     assert main([*window, "--overwrite"]) == 0
     assert sorted((tmp_path / "results" / "fem").glob("*.h5")) == files
     assert sum(path.stat().st_mtime_ns != stamps[path] for path in files) == 1
+
+
+@pytest.mark.fem
+def test_a_results_file_of_other_physics_or_another_case_is_named_not_reused(
+        tmp_path, monkeypatch, capsys):
+    """Another physics version: the file is named stale; another case in a named --output:
+    refused; both in one line (exit 2) with the file untouched."""
+    from roughfriction.solver import run as solver_run
+
+    monkeypatch.chdir(tmp_path)
+    command = ["G5", "--n", "8", "--window", "1", "--load", "0.3", "--elastic",
+               "--normal-only", "--output", "run.h5"]
+    assert main(command) == 0
+    with h5py.File("run.h5", "a") as h5:
+        h5.attrs["physics"] = "0123456789abcdef"
+    stamp = (tmp_path / "run.h5").stat().st_mtime_ns
+    capsys.readouterr()
+    monkeypatch.setattr(solver_run, "run", lambda *args, **kwargs: pytest.fail("solved"))
+    assert main(command) == 2
+    error = capsys.readouterr().err.strip().splitlines()
+    assert len(error) == 1
+    assert "run.h5 is stale: computed by other physics (0123456789ab, this code " in error[0]
+    assert main([*command[:6], "0.5", *command[7:]]) == 2
+    error = capsys.readouterr().err.strip().splitlines()
+    assert error == ["roughfriction: error: run.h5 holds another case: pass --overwrite to "
+                     "recompute, or name another --output"]
+    assert (tmp_path / "run.h5").stat().st_mtime_ns == stamp
 
 
 @pytest.mark.fem
