@@ -52,6 +52,8 @@ def _finite_or_none(value):
 
 
 def _text(value) -> str:
+    if isinstance(value, list):
+        return "; ".join(map(_text, value)) or "none"
     return f"{value:.6g}" if isinstance(value, float) else str(value)
 
 
@@ -129,12 +131,33 @@ def add_surface_arguments(parser: argparse.ArgumentParser) -> None:
     )
 
 
+def config_material(args) -> Material:
+    """The material of ``--config``'s ``[material]`` table (SI units, or pressures with a unit),
+    the paper's without one; refused when it is no metal's (``plausibility.check_material``)."""
+    from roughfriction.plausibility import material_from_table
+    from roughfriction.scripts.fem import read_config
+
+    return material_from_table(read_config(args.config).get("material", {}))
+
+
+def add_material_argument(parser: argparse.ArgumentParser) -> None:
+    """``--config``: the material of a case file (the ``fem`` command's; its other keys are
+    checked, not used)."""
+    parser.add_argument("--config", metavar="TOML",
+                        help="case file whose [material] table (E, nu, Sy, Et, tau_c in Pa, or "
+                        "with a unit: \"800MPa\") replaces the paper's material (E 200 GPa, nu "
+                        "0.3, Sy 1 GPa)")
+
+
 def cmd_surface_stats(args) -> dict:
     from roughfriction.geometry.statistics import surface_statistics
+    from roughfriction.plausibility import material_record
 
+    material = config_material(args)
     surface = surface_from_args(args)
-    stats = surface_statistics(surface, Material())
-    return {"surface": surface.name, "n": surface.n, "spacing": surface.spacing, **stats.as_dict()}
+    stats = surface_statistics(surface, material)
+    return {"surface": surface.name, "n": surface.n, "spacing": surface.spacing, **stats.as_dict(),
+            "material": material_record(material)}
 
 
 def cmd_surface_list(args) -> dict:
@@ -145,9 +168,16 @@ def cmd_surface_list(args) -> dict:
 
 def cmd_multiscale(args) -> dict:
     from roughfriction.multiscale.theory import evaluate_theory
+    from roughfriction.plausibility import material_record, result_warnings
 
+    material = config_material(args)
     surface = surface_from_args(args)
-    return evaluate_theory(surface, args.load, Material(), variant=args.variant).as_dict()
+    result = evaluate_theory(surface, args.load, material, variant=args.variant).as_dict()
+    flags = result_warnings(args.load, [result["area_ratio_normal"],
+                                        result["area_ratio_sliding"]])
+    for line in flags:
+        print(f"warning: {line}", file=sys.stderr)
+    return {**result, "warnings": flags, "material": material_record(material)}
 
 
 def cmd_fem(args) -> dict:
@@ -233,6 +263,7 @@ def build_parser() -> argparse.ArgumentParser:
         "stats", help="Rq, McCool moments, alpha, sigma_s, R, plasticity index psi (SI units)"
     )
     add_surface_arguments(stats)
+    add_material_argument(stats)
     stats.add_argument("--json", action="store_true", help="one JSON object on stdout")
     stats.set_defaults(run=cmd_surface_stats)
     listing = surface_commands.add_parser("list", help="the built-in surfaces")
@@ -253,6 +284,7 @@ def build_parser() -> argparse.ArgumentParser:
         help="shear stress passed to the junction-growth fit (Eq. 36): A = tau_c (default), "
         "B = min(tau_i, tau_c)",
     )
+    add_material_argument(theory)
     theory.add_argument("--json", action="store_true", help="one JSON object on stdout")
     theory.set_defaults(run=cmd_multiscale)
 

@@ -50,6 +50,7 @@ from roughfriction.errors import ConvergenceError, InputError
 from roughfriction.files import agreed, check_results_file, check_writable_directory
 from roughfriction.geometry.surface import Surface, surface_on_fem_grid, validate_grid_points
 from roughfriction.material import Material
+from roughfriction.plausibility import material_from_table, material_record, result_warnings
 from roughfriction.solver.results import CANDIDATE_GAP_SHARE
 from roughfriction.studies.refinement import (
     DEFAULT_MAX_LEVEL,
@@ -190,7 +191,7 @@ def case_from_args(args, surface: Surface, comm=None) -> FemCase:
             n = validate_grid_points(n)
             if comm is not None:
                 check_memory(n * (2 if getattr(args, "refine", False) else 1), mesh, comm)
-        material = Material(**config.get("material", {}))
+        material = material_from_table(config.get("material", {}))
         loading = Loading(float(load), normal_only=bool(setting("normal_only")))
         return FemCase(
             surface=meshed_surface(surface, n, getattr(args, "window", None), material, comm),
@@ -384,21 +385,23 @@ def run_fem(args) -> dict:
         if comm.rank == 0:
             print(f"reused: {outputs.results} holds this case, computed by this code "
                   "(--overwrite recomputes it)", file=sys.stderr)
-        _warn_unresolved(stored, comm)
+        _print_warnings(stored, comm)
         return stored
     agreed(comm, lambda: outputs.check(args.overwrite))
     output = outputs.results
-    meshed = {"psi_meshed": surface_statistics(case.surface, case.material).psi}
+    meshed = {"psi_meshed": surface_statistics(case.surface, case.material).psi,
+              "material": material_record(case.material)}
     if args.msh:
         meshed_case = with_blend_layers_needed(case, lambda note: None)  # the run says it
         write_block_msh(case.surface.heights, case.surface.spacing, meshed_case.mesh, args.msh,
                         comm)
     if limits is None:
         outcome = run(case, comm, xdmf_directory=outputs.fields)
-        _save(output, case, outcome, comm, meshed, outputs.request)
-        summary = outcome.result.summary()
-        _warn_unresolved(summary, comm)
-        return {**summary, **meshed}
+        summary = with_warnings({**outcome.result.summary(), **meshed}, case)
+        _save(output, case, outcome, comm, {**meshed, "warnings": summary["warnings"]},
+              outputs.request)
+        _print_warnings(summary, comm)
+        return summary
     return run_levels(case, outputs, limits, meshed, comm)
 
 
@@ -452,7 +455,8 @@ def run_levels(case: FemCase, outputs: FemOutputs, limits: LadderLimits, meshed:
 
         def save(ladder) -> None:
             extra = meshed if path == outputs.coarse else {**ladder.summary(), **meshed}
-            _save(path, level_case, fem_run, comm, extra, request)
+            flags = with_warnings({**summary, **extra}, level_case)["warnings"]
+            _save(path, level_case, fem_run, comm, {**extra, "warnings": flags}, request)
 
         key = "area_ratio_normal" if level_case.loading.normal_only else "mu_s"
         sizes = fem_run.result.sizes
@@ -463,8 +467,8 @@ def run_levels(case: FemCase, outputs: FemOutputs, limits: LadderLimits, meshed:
                         lambda level_case: level_memory_gb(level_case, comm.size))
     if not ladder.met:
         raise ToleranceNotMet(f"{ladder.shortfall()} (results in {outputs.results})")
-    summary = {**finest, **ladder.summary(), **meshed}
-    _warn_unresolved(summary, comm)
+    summary = with_warnings({**finest, **ladder.summary(), **meshed}, case)
+    _print_warnings(summary, comm)
     return summary
 
 
@@ -488,17 +492,26 @@ def unresolved_warning(summary: dict) -> str | None:
 
     if summary.get("reliable") is not False:
         return None
-    return (f"warning: the contact patches hold {summary['cells_per_patch']:.2g} grid cells of "
-            f"contact area each (< {RELIABLE_CELLS_PER_PATCH}): they are not resolved, and the "
-            "area and mu_s are mesh-dependent (docs/verification.md); refine the mesh "
-            "(--refine, a larger --n) or read the result as unreliable")
+    return (f"the contact patches hold {summary['cells_per_patch']:.2g} grid cells of contact "
+            f"area each (< {RELIABLE_CELLS_PER_PATCH}): they are not resolved, and the area and "
+            "mu_s are mesh-dependent (docs/verification.md); --tol 0.03 refines the mesh until "
+            "the estimated error of mu_s is 3 %, or read the result as unreliable")
 
 
-def _warn_unresolved(summary: dict, comm) -> None:
-    """Print :func:`unresolved_warning` on stderr (rank 0) if there is one."""
-    warning = unresolved_warning(summary)
-    if warning and comm.rank == 0:
-        print(warning, file=sys.stderr)
+def with_warnings(summary: dict, case: FemCase) -> dict:
+    """``summary`` with ``warnings``: the result's flags (``plausibility.result_warnings``)
+    and :func:`unresolved_warning`, one line each."""
+    flags = result_warnings(case.loading.load_star, [summary.get("area_ratio_normal"),
+                                                     summary.get("area_ratio_sliding")])
+    return {**summary, "warnings": flags + [line for line in (unresolved_warning(summary),)
+                                            if line]}
+
+
+def _print_warnings(summary: dict, comm) -> None:
+    """Print the summary's ``warnings`` on stderr (rank 0)."""
+    if comm.rank == 0:
+        for line in summary.get("warnings", []):
+            print(f"warning: {line}", file=sys.stderr)
 
 
 def _check_converged(outcome, output: Path) -> None:

@@ -22,6 +22,7 @@ from roughfriction.geometry.statistics import surface_statistics
 from roughfriction.geometry.surface import Surface, surface_on_fem_grid, validate_grid_points
 from roughfriction.material import Material
 from roughfriction.multiscale.theory import TheoryResult, evaluate_theory
+from roughfriction.plausibility import check_material
 from roughfriction.studies.paper import surface_window
 from roughfriction.studies.post import RunFile, read_run
 
@@ -44,7 +45,8 @@ def theory(surface: Surface, load_star: float, material: Material | None = None,
     """Multi-scale (Sect. 4.2), CKE (Eq. 8) and LET (Eq. 20) static friction of ``surface`` at
     the dimensionless normal load F* = F_n / (A_n S_y) [-] (Eq. 10), for ``material`` (default:
     the paper's); what ``roughfriction multiscale`` prints."""
-    return evaluate_theory(surface, load_star, material or Material(), variant=variant)
+    return evaluate_theory(surface, load_star, check_material(material or Material()),
+                           variant=variant)
 
 
 def fem_case(surface: Surface, load_star: float, *, n: int | None = None,
@@ -71,7 +73,7 @@ def fem_case(surface: Surface, load_star: float, *, n: int | None = None,
         Defaults: the paper's material, the default mesh and solver options.
     """
     loading = Loading(load_star, normal_only)
-    material = material or Material()
+    material = check_material(material or Material())
     return FemCase(meshed_surface(surface, n, window, material), loading, material,
                    mesh or MeshOptions(), solver or SolverOptions())
 

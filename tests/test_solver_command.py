@@ -219,8 +219,8 @@ def test_bad_windows(window, message, capsys):
 
 def test_unresolved_patches_are_warned_about_in_one_line():
     warning = unresolved_warning({"reliable": False, "cells_per_patch": 0.55})
-    assert warning.startswith("warning: the contact patches hold 0.55 grid cells")
-    assert "\n" not in warning and "< 4" in warning
+    assert warning.startswith("the contact patches hold 0.55 grid cells")
+    assert "\n" not in warning and "< 4" in warning and "--tol 0.03 refines" in warning
     for summary in ({"reliable": True, "cells_per_patch": 6.0}, {"reliable": None}):
         assert unresolved_warning(summary) is None
 
