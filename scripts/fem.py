@@ -210,7 +210,7 @@ def meshed_surface(surface: Surface, n: int | None, window: str | None, material
     the surface's own spacing, or the surface re-gridded (``surface_on_fem_grid``), which is
     noted on stderr (rank 0) with the psi (for ``material``) before and after when it makes it
     smoother."""
-    from roughfriction.geometry.statistics import surface_statistics
+    from roughfriction.studies.api import regrid_note
     from roughfriction.studies.paper import surface_window
 
     if window is not None:
@@ -226,12 +226,9 @@ def meshed_surface(surface: Surface, n: int | None, window: str | None, material
             raise InputError(f"--window counts from 1, got {index}")
         return surface_window(surface, n, index - 1)
     meshed = surface_on_fem_grid(surface, n)
-    if meshed.n < surface.n and (comm is None or comm.rank == 0):
-        psi = [surface_statistics(one, material).psi for one in (surface, meshed)]
-        print(f"note: {surface.name or 'surface'} re-gridded from {surface.n} to {meshed.n} "
-              f"points per side over its scan length: psi {psi[0]:.3g} -> {psi[1]:.3g} (a "
-              f"smoother surface); --window best meshes a {meshed.n} x {meshed.n} window at "
-              "its own spacing", file=sys.stderr)
+    note = regrid_note(surface, meshed, material)
+    if note and (comm is None or comm.rank == 0):
+        print(f"note: {note}", file=sys.stderr)
     return meshed
 
 

@@ -89,13 +89,28 @@ def meshed_surface(surface: Surface, n: int | None = None, window: int | str | N
     if window is not None:
         return _window(surface, n, window)
     meshed = surface_on_fem_grid(surface, n)
-    if meshed.n < surface.n:
-        psi = [surface_statistics(one, material or Material()).psi for one in (surface, meshed)]
-        warnings.warn(f"{surface.name or 'surface'} re-gridded from {surface.n} to {meshed.n} "
-                      f"points per side over its scan length: psi {psi[0]:.3g} -> {psi[1]:.3g} "
-                      f"(a smoother surface); window='best' meshes a {meshed.n} x {meshed.n} "
-                      "window at its own spacing", stacklevel=3)
+    note = regrid_note(surface, meshed, material or Material())
+    if note:
+        warnings.warn(note, stacklevel=3)
     return meshed
+
+
+def regrid_note(surface: Surface, meshed: Surface, material: Material) -> str | None:
+    """One line when ``meshed`` is ``surface`` re-gridded over its scan length (coarser: a
+    smoother surface; finer: Fourier-interpolated between its points), with the psi of both
+    for ``material``; None when it is the surface as is. Both front doors say it."""
+    if meshed.n == surface.n:
+        return None
+    psi = [surface_statistics(one, material).psi for one in (surface, meshed)]
+    name, change = surface.name or "surface", f"psi {psi[0]:.3g} -> {psi[1]:.3g}"
+    if meshed.n < surface.n:
+        return (f"{name} re-gridded from {surface.n} to {meshed.n} points per side over its "
+                f"scan length: {change} (a smoother surface); window 'best' (--window best) "
+                f"meshes a {meshed.n} x {meshed.n} window at its own spacing")
+    return (f"{name} Fourier-interpolated from {surface.n} to {meshed.n} points per side: "
+            f"{change}, heights made up between the measured points ({meshed.n ** 2} surface "
+            f"cells, {meshed.n ** 2 / surface.n ** 2:.3g}x the surface's own grid); the measured "
+            "surface on a finer mesh is --tol (or --refine)")
 
 
 def _window(surface: Surface, n: int | None, window: int | str) -> Surface:

@@ -70,6 +70,16 @@ def test_fem_case_re_grids_with_a_warning_or_takes_a_window():
     assert second.loading.normal_only and whole.surface is g5
 
 
+def test_an_n_above_the_surface_points_is_noted_like_a_re_grid():
+    """--n above the points Fourier-interpolates the surface: said with the psi of both and
+    the command that refines the mesh of the surface as measured instead."""
+    window = rf.fem_case(rf.load_surface("G5"), 0.155, n=16, window=1).surface
+    with pytest.warns(UserWarning, match=r"Fourier-interpolated from 16 to 32 points per side: "
+                      r"psi .* -> .*; the measured surface on a finer mesh is --tol"):
+        finer = rf.fem_case(window, 0.155, n=32)
+    assert finer.surface.n == 32
+
+
 @pytest.mark.parametrize("window, n, message", [
     (0, 16, "window takes 'best' or a window number 1, 2, ..., got 0"),
     ("first", 16, "got 'first'"),
