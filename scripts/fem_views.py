@@ -3,6 +3,7 @@ contact area and tangential load along the loading), and one run's pictures for
 ``roughfriction post RUN --plot DIR``. Values come from the runs' results files through
 ``studies.post``; a run whose preload (or sliding) did not finish gives NaN there."""
 
+import math
 from pathlib import Path
 
 import numpy as np
@@ -11,7 +12,7 @@ from roughfriction.geometry.generate import builtin_surface
 from roughfriction.geometry.statistics import surface_statistics
 from roughfriction.geometry.surface import Surface
 from roughfriction.material import Material
-from roughfriction.scripts.figures import new_axes, save_png
+from roughfriction.scripts.figures import PNG_DPI, new_axes, pyplot, save_png
 from roughfriction.studies.post import interference, preload_state, tangential_curve
 
 UM = 1e-6
@@ -97,24 +98,79 @@ def map_extent(n: int, spacing: float) -> tuple:
     return (-h / 2, (n - 0.5) * h) * 2
 
 
+#: Least side of a map panel in the PNG [px] (at least one pixel per grid cell above it).
+MAP_PANEL_PX = 600
+#: Margins of a row of map panels [in]: left of the first, right of the last panel or colour
+#: bar, below, above (titles), between panels, from the last panel to the first colour bar.
+MAP_MARGINS_IN = {"left": 0.75, "right": 0.25, "bottom": 0.6, "top": 1.0, "between": 0.8,
+                  "to_bar": 0.25}
+#: Drawing order of maps: above the axes frame (2.5), which would hide a row of edge cells.
+MAP_ZORDER = 3
+#: Width of a colour bar [in], and the space each takes with its ticks and label [in].
+COLOUR_BAR_IN = (0.15, 1.1)
+
+
+def cell_pixels(n: int) -> int:
+    """Whole PNG pixels per cell side of an n x n map [px]: panels of at least
+    :data:`MAP_PANEL_PX`, and never less than one pixel per cell, so that no cell vanishes."""
+    return max(1, math.ceil(MAP_PANEL_PX / n))
+
+
+def map_figure(n: int, panels: int, colour_bars: int = 0):
+    """A figure with a row of ``panels`` square axes for n x n maps, each exactly
+    n :func:`cell_pixels` PNG pixels a side at whole-pixel positions (:data:`PNG_DPI`), and
+    ``colour_bars`` axes for colour bars at the right.
+
+    Returns
+    -------
+    fig, list of map axes, list of colour-bar axes
+    """
+    side = n * cell_pixels(n)
+    margin = {key: round(inches * PNG_DPI) for key, inches in MAP_MARGINS_IN.items()}
+    bar_width, bar_space = (round(inches * PNG_DPI) for inches in COLOUR_BAR_IN)
+    bars_left = margin["left"] + panels * side + (panels - 1) * margin["between"] \
+        + margin["to_bar"]
+    width = bars_left + colour_bars * bar_space + margin["right"]
+    height = margin["bottom"] + side + margin["top"]
+    fig = pyplot().figure(figsize=(width / PNG_DPI, height / PNG_DPI), dpi=PNG_DPI)
+
+    def column(left: int, wide: int):
+        return fig.add_axes((left / width, margin["bottom"] / height, wide / width,
+                             side / height))
+
+    axes = [column(margin["left"] + k * (side + margin["between"]), side) for k in range(panels)]
+    bars = [column(bars_left + k * bar_space, bar_width) for k in range(colour_bars)]
+    for bar in bars:
+        bar.grid(False)  # a colour bar draws no grid (the figures' style turns grids on)
+    return fig, axes, bars
+
+
+def show_map(ax, values: np.ndarray, spacing: float, **style):
+    """Draw an n x n map ([i, j] at x = i h, y = j h; ``spacing`` h [m]) on ``ax`` in µm, one
+    block of whole pixels per cell (nearest, not smoothed) above the axes frame: a single
+    contact cell stays visible, also at the edge; ``style`` goes to imshow. Returns the
+    image."""
+    ax.grid(False)
+    ax.set_xlabel("x (µm)")
+    ax.set_ylabel("y (µm)")
+    return ax.imshow(values.T, origin="lower", extent=map_extent(values.shape[0], spacing),
+                     interpolation="nearest", aspect="auto", zorder=MAP_ZORDER, **style)
+
+
 def contact_maps(runs):
     """Contact under the normal preload on the topography, one panel per run (Fig. 8)."""
-    fig, axes = new_axes(4.2 * len(runs), 3.6, ncols=len(runs))
     heights = runs[0].maps["surface_heights"]
+    fig, axes, _ = map_figure(heights.shape[0], len(runs))
     i, j = np.indices(heights.shape)
     columns = {"x_m": (i * runs[0].spacing).ravel(), "y_m": (j * runs[0].spacing).ravel(),
                "z_m": heights.ravel()}
     from matplotlib.colors import ListedColormap
 
-    extent = map_extent(heights.shape[0], runs[0].spacing)
-    for ax, run in zip(np.atleast_1d(axes), runs, strict=True):
+    for ax, run in zip(axes, runs, strict=True):
         contact = run.maps["contact_normal"]
-        ax.imshow(heights.T / UM, origin="lower", extent=extent, cmap="Greys")
-        ax.imshow(np.ma.masked_where(~contact.T, contact.T), origin="lower", extent=extent,
-                  cmap=ListedColormap(["red"]))
-        ax.grid(False)
-        ax.set_xlabel("x (µm)")
-        ax.set_ylabel("y (µm)")
+        show_map(ax, heights / UM, run.spacing, cmap="Greys")
+        show_map(ax, np.ma.masked_where(~contact, contact), run.spacing,
+                 cmap=ListedColormap(["red"]))
         ax.set_title(f"{run.surface_name}, $F^*$ = {run.load_star:g}: "
                      f"{int(contact.sum())} contact nodes")
         columns[f"contact_F{run.load_star:g}"] = contact.ravel().astype(int)
@@ -186,25 +242,20 @@ def run_contact_figure(run):
     from matplotlib.colors import Normalize
 
     stages = contact_stages(run)
-    fig, axes = new_axes(4.2 * len(stages) + 1.8, 4.6, ncols=len(stages))
     heights = run.maps["surface_heights"] / UM
-    extent = map_extent(heights.shape[0], run.spacing)
+    fig, axes, bars = map_figure(heights.shape[0], len(stages), colour_bars=2)
     pressures = [run.maps[f"pressure_{phase}"] / MPA for phase, _ in stages]
     scale = Normalize(0.0, max(float(np.max(p)) for p in pressures))
-    for ax, (phase, title), pressure in zip(np.atleast_1d(axes), stages, pressures, strict=True):
+    for ax, (phase, title), pressure in zip(axes, stages, pressures, strict=True):
         contact = run.maps[f"contact_{phase}"]
-        topography = ax.imshow(heights.T, origin="lower", extent=extent, cmap="Greys",
-                               alpha=0.6)
-        image = ax.imshow(np.ma.masked_where(~contact.T, pressure.T), origin="lower",
-                          extent=extent, cmap="plasma", norm=scale)
-        ax.grid(False)
-        ax.set_xlabel("x (µm)")
-        ax.set_ylabel("y (µm)")
+        topography = show_map(ax, heights, run.spacing, cmap="Greys", alpha=0.6)
+        image = show_map(ax, np.ma.masked_where(~contact, pressure), run.spacing,
+                         cmap="plasma", norm=scale)
         area = run.maps.get(f"contact_fraction_{phase}")
         area_text = f", $A_r/A_n$ = {np.mean(area):.3g}" if area is not None else ""
         ax.set_title(f"{title}\n{int(contact.sum())} contact nodes{area_text}", fontsize=9)
-    fig.colorbar(image, ax=axes, label="contact pressure $p$ (MPa)", shrink=0.9)
-    fig.colorbar(topography, ax=axes, label="surface height $z$ (µm)", shrink=0.9)
+    fig.colorbar(image, cax=bars[0], label="contact pressure $p$ (MPa)")
+    fig.colorbar(topography, cax=bars[1], label="surface height $z$ (µm)")
     fig.suptitle(f"Contact pressure over the surface heights: {run_label(run)}")
     return fig
 

@@ -4,7 +4,8 @@ A theory figure module defines ``make() -> (matplotlib Figure, dict of equal-len
 A FEM figure module also defines ``fem_cases(n) -> list of FemCase`` (the runs it needs on an
 n x n FEM grid) and draws with ``make(runs)``, ``runs`` being the runs' results files
 (:class:`studies.post.RunFile`) in the order of its cases; the runs come from the run cache
-(``studies.cache``, computed on every MPI rank when missing), and only rank 0 draws.
+(``studies.cache``, computed on every MPI rank when missing, after one stderr line saying how
+many), and only rank 0 draws. Every PNG has :data:`PNG_DPI` pixels per inch.
 ``make_figure`` writes ``figures/figNN.png`` and the data behind it, ``figures/figNN.csv``,
 each atomically (a killed run never leaves a half-written file under the final name).
 """
@@ -25,18 +26,26 @@ FEM_FIGURES = ("fig8", "fig9", "fig10", "fig14", "fig15", "fig20", "fig21", "fig
                "fig24", "fig25", "fig26", "fig27", "fig28", "fig29")
 FIGURES = tuple(sorted(THEORY_FIGURES + FEM_FIGURES, key=lambda name: int(name[3:])))
 FIGURE_DIR = Path("figures")
+#: Resolution of every PNG [pixels per inch]: a 5 x 3.6 in figure is 1000 x 720 px, sharp at
+#: README width on a high-density screen.
+PNG_DPI = 200
 
 
-def new_axes(width: float = 5.0, height: float = 3.6, ncols: int = 1):
-    """A figure with one axes (or a row of ``ncols``), sized to read well at README width."""
+def pyplot():
+    """matplotlib.pyplot on the Agg backend (files only, no display) in the figures' style."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     plt.rcParams.update({"font.size": 10, "axes.grid": True, "grid.alpha": 0.3})
-    fig, ax = plt.subplots(1, ncols, figsize=(width, height), constrained_layout=True)
-    return fig, ax
+    return plt
+
+
+def new_axes(width: float = 5.0, height: float = 3.6, ncols: int = 1):
+    """A figure ``width`` x ``height`` [in] with one axes (or a row of ``ncols``), sized to read
+    well at README width."""
+    return pyplot().subplots(1, ncols, figsize=(width, height), constrained_layout=True)
 
 
 def figure_module(name: str):
@@ -72,7 +81,8 @@ def read_table(path: Path) -> dict[str, np.ndarray]:
 
 def fem_runs(module, n: int | None = None, runs_directory=None) -> list | None:
     """The results files of the FEM runs a figure module declares, from the run cache
-    (computing the missing ones on every rank); None on ranks other than 0.
+    (computing the missing ones on every rank, announced first by :func:`announce_runs`); None
+    on ranks other than 0.
 
     Parameters
     ----------
@@ -89,8 +99,47 @@ def fem_runs(module, n: int | None = None, runs_directory=None) -> list | None:
     from roughfriction.studies.post import read_run
 
     comm = MPI.COMM_WORLD
-    paths = cached_results(module.fem_cases(fem_resolution(n)), comm, directory=runs_directory)
+    cases = module.fem_cases(fem_resolution(n))
+    if comm.rank == 0:
+        announce_runs(module.__name__.rpartition(".")[2], cases, runs_directory)
+    paths = cached_results(cases, comm, directory=runs_directory)
     return [read_run(path) for path in paths] if comm.rank == 0 else None
+
+
+def runs_to_compute(label: str, cases, runs_directory=None) -> str:
+    """One line saying what the run cache lacks for ``cases`` (repeats counted once): how many
+    FEM runs ``label`` needs, on which grids N, how many are cached and how many will be
+    computed; "" when every run is cached.
+
+    Parameters
+    ----------
+    label : str
+        Who needs them (``fig20``).
+    cases : sequence of FemCase
+        The runs needed.
+    runs_directory : str or pathlib.Path, optional
+        The run cache (default :func:`studies.cache.runs_directory`).
+    """
+    from roughfriction.studies import cache
+
+    directory = cache.runs_directory(runs_directory)
+    physics = cache.physics_version()
+    unique = {cache.run_key(case, physics): case for case in cases}.values()
+    cached = sum(cache.finished_entry(directory, case, physics) is not None for case in unique)
+    if cached == len(unique):
+        return ""
+    grids = " and ".join(str(n) for n in sorted({case.surface.n for case in unique}))
+    return (f"{label}: {len(unique)} FEM runs needed (N = {grids}), {cached} in the run cache "
+            f"{directory}, computing {len(unique) - cached} now (progress follows per step)")
+
+
+def announce_runs(label: str, cases, runs_directory=None) -> None:
+    """Print :func:`runs_to_compute` on stderr unless every run is cached (call on rank 0)."""
+    from roughfriction.studies.cache import stderr_line
+
+    line = runs_to_compute(label, cases, runs_directory)
+    if line:
+        stderr_line(line)
 
 
 def sliding_key(case, physics: str) -> str:
@@ -127,17 +176,18 @@ def compute_fem_runs(n: int | None = None, runs_directory=None) -> int:
     cases = [case for name in FEM_FIGURES
              for case in figure_module(name).fem_cases(fem_resolution(n))]
     physics = physics_version()
-    cached_results(needed_cases(cases, sliding_keys(cases, physics), physics), MPI.COMM_WORLD,
-                   directory=runs_directory)
+    needed = needed_cases(cases, sliding_keys(cases, physics), physics)
+    if MPI.COMM_WORLD.rank == 0:
+        announce_runs("figure runs", needed, runs_directory)
+    cached_results(needed, MPI.COMM_WORLD, directory=runs_directory)
     return len(cases)
 
 
 def save_png(fig, path: Path) -> Path:
-    """Write ``fig`` as a PNG at ``path`` atomically and close it; return ``path``."""
-    import matplotlib.pyplot as plt
-
-    atomic_write(path, lambda tmp: fig.savefig(tmp, dpi=110, format="png"))
-    plt.close(fig)
+    """Write ``fig`` as a PNG of :data:`PNG_DPI` at ``path`` atomically and close it; return
+    ``path``."""
+    atomic_write(path, lambda tmp: fig.savefig(tmp, dpi=PNG_DPI, format="png"))
+    pyplot().close(fig)
     return path
 
 

@@ -2,7 +2,7 @@
 
 import numpy as np
 from roughfriction.geometry.generate import builtin_surface
-from roughfriction.scripts.figures import new_axes
+from roughfriction.scripts.figures import new_axes, pyplot
 
 UM = 1e-6
 
@@ -22,10 +22,8 @@ def _columns(surface, heights_um):
 
 def surface_3d(name: str):
     """Three-dimensional plot of built-in surface ``name`` (Figs. 3 and 5)."""
-    import matplotlib.pyplot as plt
-
     surface, x, z = _grid(name)
-    fig = plt.figure(figsize=(5.0, 3.8), constrained_layout=True)
+    fig = pyplot().figure(figsize=(5.0, 3.8), constrained_layout=True)
     ax = fig.add_subplot(projection="3d")
     xx, yy = np.meshgrid(x, x, indexing="ij")
     ax.plot_surface(xx, yy, z, cmap="viridis", linewidth=0, rcount=128, ccount=128)
@@ -39,7 +37,7 @@ def surface_3d(name: str):
 def surface_contour(name: str):
     """Topographical contour plot of built-in surface ``name`` (Figs. 4 and 6)."""
     surface, x, z = _grid(name)
-    fig, ax = new_axes(4.6, 3.8)
+    fig, ax = new_axes(5.0, 4.1)
     filled = ax.contourf(x, x, z.T, levels=20, cmap="viridis")  # rows of z.T are y
     fig.colorbar(filled, ax=ax, label="z (µm)")
     ax.set_aspect("equal")

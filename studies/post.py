@@ -10,7 +10,6 @@ and CSV files of the surface maps.
 from __future__ import annotations
 
 import json
-import os
 from dataclasses import dataclass, fields
 from pathlib import Path
 
@@ -309,30 +308,52 @@ def map_summary(name: str, values: np.ndarray) -> dict:
             "mean_nonzero_Pa": float(loaded.mean()) if loaded.size else 0.0}
 
 
+def map_column(name: str, values: np.ndarray) -> str:
+    """The CSV column of map ``name``: the name with its unit (:func:`map_unit`) appended, e.g.
+    ``pressure_normal_Pa``; flags (0/1) and dimensionless maps keep the bare name."""
+    if np.asarray(values).dtype == bool:
+        return name
+    unit = map_unit(name)
+    return name if unit == "-" else f"{name}_{unit}"
+
+
+def map_table(values: np.ndarray, spacing: float) -> np.ndarray:
+    """An n x n map as rows (x [m], y [m], value), x = i h, y = j h with ``spacing`` h [m], in
+    the order of ``values.ravel()`` (x-major): column 2 reshaped to (n, n) is the map again;
+    flags become 0/1."""
+    values = np.asarray(values)
+    i, j = np.indices(values.shape)
+    return np.column_stack([i.ravel() * spacing, j.ravel() * spacing,
+                            values.astype(float).ravel()])
+
+
+def write_map_csv(path, name: str, values: np.ndarray, spacing: float) -> Path:
+    """Write map ``name`` as the CSV ``path`` atomically: the header ``x_m,y_m,<column>``
+    (:func:`map_column`), then one row per grid point (:func:`map_table`, ``spacing`` h [m]);
+    return ``path``."""
+    from roughfriction.files import atomic_write
+
+    value_format = "%d" if np.asarray(values).dtype == bool else "%.10g"
+    atomic_write(Path(path), lambda temporary: np.savetxt(
+        temporary, map_table(values, spacing), fmt=["%.10g", "%.10g", value_format],
+        delimiter=",", header=f"x_m,y_m,{map_column(name, values)}", comments=""))
+    return Path(path)
+
+
 def write_map_csvs(run: RunFile, directory) -> list[Path]:
-    """Write every map as ``DIRECTORY/<name>.csv``: an N x N matrix, row i (x = i h), column j
-    (y = j h); flags as 0/1, pressures and shear in Pa, contact fractions per cell in 0..1 (-),
-    heights in m. Each file is written to a
-    temporary name and renamed.
+    """Write every map as ``DIRECTORY/<name>.csv`` (:func:`write_map_csv`): the header
+    ``x_m,y_m,<name>[_<unit>]``, then one row per grid point in x-major order (x = i h,
+    y = j h [m]; the third column reshaped to (N, N) is the map): flags as 0/1, pressures and
+    shear in Pa, contact fractions per cell in 0..1 (-), heights and gaps in m. Readable by
+    ``pandas.read_csv`` and ``np.loadtxt(path, delimiter=",", skiprows=1)``.
 
     Returns
     -------
     list of pathlib.Path
         The files written.
     """
-    directory = Path(directory)
-    directory.mkdir(parents=True, exist_ok=True)
-    written = []
-    for name, values in run.maps.items():
-        path = directory / f"{name}.csv"
-        temporary = directory / f".{name}.csv.{os.getpid()}.tmp"
-        values = np.asarray(values)
-        number_format = "%d" if values.dtype == bool else "%.10g"
-        np.savetxt(temporary, values.astype(int) if values.dtype == bool else values,
-                   fmt=number_format, delimiter=",")
-        os.replace(temporary, path)
-        written.append(path)
-    return written
+    return [write_map_csv(Path(directory) / f"{name}.csv", name, values, run.spacing)
+            for name, values in run.maps.items()]
 
 
 def run_report(run: RunFile) -> dict:

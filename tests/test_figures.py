@@ -41,6 +41,17 @@ def test_figure_writes_png_and_csv(name, figure_dir):
     assert not list(figure_dir.glob(".*"))  # no temporary files left behind
 
 
+#: Least width of a figure PNG for README width on a high-density screen [px] (the old: 550).
+MIN_PNG_WIDTH = 1000
+
+
+@pytest.mark.parametrize("name", THEORY_FIGURES)
+def test_figure_pngs_are_sharp(name, figure_dir):
+    from matplotlib.image import imread
+
+    assert imread(figure_dir / f"{name}.png").shape[1] >= MIN_PNG_WIDTH
+
+
 def test_fig17_sliding_area_not_below_normal(figure_dir):
     data = read_table(figure_dir / "fig17.csv")
     assert np.all(data["area_ratio_sliding"] >= data["area_ratio_normal"])
@@ -243,6 +254,79 @@ def test_mu_vs_load_notes_a_failed_run_with_its_lower_bound(monkeypatch):
     assert columns["note"][fem][0] == "failed before sliding inception: mu_s >= 0.61"
     assert not any(columns["note"][fem][1:])
     assert AT_LEAST in fig.axes[0].get_legend_handles_labels()[1]
+
+
+# --- FEM figures: what they are about to compute ----------------------------------------------
+
+class CacheReached(Exception):
+    """Raised by a stand-in run cache instead of computing runs."""
+
+
+def no_runs(monkeypatch):
+    """Make the run cache raise :class:`CacheReached` instead of computing or reading runs."""
+    from roughfriction.studies import cache
+
+    def refuse(*args, **kwargs):
+        raise CacheReached
+
+    monkeypatch.setattr(cache, "cached_results", refuse)
+
+
+def fake_entries(cases, directory: Path) -> set[str]:
+    """Empty files at the cache entries of ``cases`` (a finished entry is a file under its
+    final name); return their keys."""
+    from roughfriction.studies.cache import entry_path, physics_version, run_key
+
+    physics = physics_version()
+    directory.mkdir(parents=True, exist_ok=True)
+    for case in cases:
+        entry_path(directory, case, physics).touch()
+    return {run_key(case, physics) for case in cases}
+
+
+@pytest.mark.parametrize("name", ["fig20", "fig22"])
+def test_a_fem_figure_says_which_runs_it_will_compute(name, tmp_path, monkeypatch, capsys):
+    """One stderr line before the runs start: how many, how many are cached, on which N."""
+    from roughfriction.studies.cache import physics_version, run_key
+
+    no_runs(monkeypatch)
+    cases = importlib.import_module(f"roughfriction.scripts.{name}").fem_cases(8)
+    physics = physics_version()
+    needed = {run_key(case, physics) for case in cases}
+    cached = fake_entries(cases[: len(cases) // 3], tmp_path / "runs")
+    with pytest.raises(CacheReached):
+        make_figure(name, tmp_path, n=8, runs_directory=tmp_path / "runs")
+    (line,) = capsys.readouterr().err.splitlines()
+    grids = " and ".join(str(n) for n in sorted({case.surface.n for case in cases}))
+    assert line.startswith(f"{name}: {len(needed)} FEM runs needed (N = {grids}), "
+                           f"{len(cached)} in the run cache {tmp_path / 'runs'}, computing "
+                           f"{len(needed) - len(cached)} now")
+
+
+def test_the_batch_of_every_fem_figure_says_which_runs_it_will_compute(tmp_path, monkeypatch,
+                                                                       capsys):
+    from roughfriction.scripts.figures import compute_fem_runs
+
+    no_runs(monkeypatch)
+    with pytest.raises(CacheReached):
+        compute_fem_runs(n=8, runs_directory=tmp_path / "runs")
+    (line,) = capsys.readouterr().err.splitlines()
+    assert line.startswith("figure runs: ") and ", 0 in the run cache " in line
+
+
+def test_a_fem_figure_with_every_run_cached_says_nothing(tmp_path, monkeypatch, capsys):
+    from roughfriction.scripts import fig20
+
+    no_runs(monkeypatch)
+    fake_entries(fig20.fem_cases(8), tmp_path / "runs")
+    with pytest.raises(CacheReached):
+        make_figure("fig20", tmp_path, n=8, runs_directory=tmp_path / "runs")
+    assert capsys.readouterr().err == ""
+
+
+def test_a_theory_figure_says_nothing(tmp_path, capsys):
+    make_figure("fig12", tmp_path)
+    assert capsys.readouterr().err == ""
 
 
 # --- one FEM figure end to end ----------------------------------------------------------------

@@ -126,11 +126,39 @@ def test_map_summaries_and_csv(run_file, tmp_path):
     assert {path.name for path in written} == {"surface_heights.csv", "contact_normal.csv",
                                                "pressure_normal.csv",
                                                "contact_fraction_normal.csv"}
-    np.testing.assert_array_equal(np.loadtxt(tmp_path / "maps" / "contact_normal.csv",
-                                             delimiter=","), contact_map().astype(int))
-    np.testing.assert_allclose(np.loadtxt(tmp_path / "maps" / "surface_heights.csv",
-                                          delimiter=","), HEIGHTS, rtol=1e-9)
+    np.testing.assert_array_equal(map_values(tmp_path / "maps" / "contact_normal.csv"),
+                                  contact_map().astype(int))
+    np.testing.assert_allclose(map_values(tmp_path / "maps" / "surface_heights.csv"), HEIGHTS,
+                               rtol=1e-9)
     assert not list((tmp_path / "maps").glob(".*"))
+
+
+def map_values(path):
+    """The N x N values of a map CSV (third column, rows in x-major order)."""
+    return np.loadtxt(path, delimiter=",", skiprows=1)[:, 2].reshape(N, N)
+
+
+@pytest.mark.parametrize(("name", "column"), [("pressure_normal", "pressure_normal_Pa"),
+                                              ("surface_heights", "surface_heights_m"),
+                                              ("contact_fraction_normal",
+                                               "contact_fraction_normal"),
+                                              ("contact_normal", "contact_normal")])
+def test_map_csvs_name_quantity_unit_and_coordinates(run_file, tmp_path, name, column):
+    """Each map CSV is a table with a header, x and y in m, and the map in its unit: a reader
+    needs nothing else to place every value (pandas or np.loadtxt reads it)."""
+    import csv
+
+    run = read_run(run_file)
+    write_map_csvs(run, tmp_path)
+    with open(tmp_path / f"{name}.csv", newline="") as file:
+        rows = list(csv.reader(file))
+    assert rows[0] == ["x_m", "y_m", column]
+    table = np.array(rows[1:], dtype=float)
+    i, j = np.indices((N, N))
+    np.testing.assert_allclose(table[:, 0], (i * SPACING).ravel(), rtol=1e-12)
+    np.testing.assert_allclose(table[:, 1], (j * SPACING).ravel(), rtol=1e-12)
+    np.testing.assert_allclose(table[:, 2], np.asarray(run.maps[name], float).ravel(),
+                               rtol=1e-9)
 
 
 def test_each_map_summary_states_its_own_unit(run_file):
