@@ -4,7 +4,8 @@ Every subcommand prints a short human-readable table, or with ``--json`` one JSO
 stdout (SI units; NaN and infinities become ``null``) so that it can be piped into other tools.
 Exit status: 0 success; 2 an input the user can fix, or a bad command line (one line on
 stderr); 3 a FEM run that did not converge (partial results written, one line on stderr); 130
-interrupted (Ctrl-C; one line); 1 anything else (a bug: traceback). Warnings are counted and
+interrupted (Ctrl-C, or SIGTERM as ``mpirun`` passes Ctrl-C on; one line); 141 stdout closed
+early (``| head``); 1 anything else (a bug: traceback). Warnings are counted and
 summarised on stderr at the end, one line per distinct warning.
 """
 
@@ -15,6 +16,7 @@ import contextlib
 import json
 import logging
 import math
+import os
 import sys
 import warnings
 from pathlib import Path
@@ -29,6 +31,8 @@ EXIT_INPUT_ERROR = 2
 EXIT_NOT_CONVERGED = 3
 #: Exit status after Ctrl-C (128 + SIGINT, as a shell reports it).
 EXIT_INTERRUPTED = 130
+#: Exit status when the reader of stdout left early (128 + SIGPIPE: ``post RUN | head -1``).
+EXIT_BROKEN_PIPE = 141
 
 
 class OneLineParser(argparse.ArgumentParser):
@@ -252,7 +256,7 @@ def build_parser() -> argparse.ArgumentParser:
         prog="roughfriction",
         description="Static friction between rough metal surfaces: multi-scale theory and FEM.",
         epilog="exit status: 0 done, 2 bad input or command line, 3 FEM run not converged, "
-        "130 interrupted",
+        "130 interrupted, 141 stdout closed early",
     )
     parser.add_argument("--version", action="version", version=f"roughfriction {__version__}")
     commands = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
@@ -306,9 +310,11 @@ def build_parser() -> argparse.ArgumentParser:
     post.add_argument("path", metavar="RUN",
                       help="HDF5 results file (roughfriction fem --output, or results/runs/)")
     post.add_argument("--maps", metavar="DIR",
-                      help="also write each surface map as DIR/<name>.csv (N x N, row i at "
-                      "x = i h, column j at y = j h; contact and slip flags 0/1, pressure and "
-                      "shear in Pa, contact fraction per cell 0..1, heights in m)")
+                      help="also write each surface map as DIR/<name>.csv: a header x_m,y_m,"
+                      "<name>[_<unit>] (e.g. pressure_normal_Pa), then one row per grid point, "
+                      "x = i h and y = j h in m, x-major (the third column reshaped to N x N is "
+                      "the map); contact and slip flags 0/1, pressure and shear in Pa, contact "
+                      "fraction per cell 0..1, heights and gaps in m")
     post.add_argument("--plot", metavar="DIR",
                       help="also draw the run as PNGs in DIR: contact pressure over the "
                       "heights at the end of the preload and at sliding inception "
@@ -428,20 +434,48 @@ def run_command(args) -> int:
         return EXIT_INPUT_ERROR
     if is_root_rank():
         emit(record, args.json)
+        sys.stdout.flush()  # a closed pipe fails here, inside main, not at the exit's flush
     return 0
+
+
+def _terminated(signal_number, frame):
+    """SIGTERM handler: stop as Ctrl-C does (``mpirun`` passes a Ctrl-C on to its ranks as
+    SIGTERM)."""
+    raise KeyboardInterrupt
+
+
+@contextlib.contextmanager
+def terminate_as_interrupt():
+    """Inside, SIGTERM raises KeyboardInterrupt (main thread only; the handler before is
+    restored after)."""
+    import signal
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    before = signal.signal(signal.SIGTERM, _terminated)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, before)
 
 
 def main(argv: list[str] | None = None) -> int:
     """The ``roughfriction`` command; returns the exit status (see the module docstring)."""
     quiet_library_logging()
     try:
-        args = build_parser().parse_args(argv)
-        with summarised_warnings():
-            return run_command(args)
+        with terminate_as_interrupt():
+            args = build_parser().parse_args(argv)
+            with summarised_warnings():
+                return run_command(args)
     except KeyboardInterrupt:
         if is_root_rank():
             print("roughfriction: interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED
+    except BrokenPipeError:
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())  # no 2nd error at exit
+        return EXIT_BROKEN_PIPE
 
 
 if __name__ == "__main__":

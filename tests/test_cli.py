@@ -130,8 +130,10 @@ def test_interrupt_is_one_line_and_exit_130(argv, monkeypatch, capsys):
 
 
 @pytest.mark.fem
-def test_ctrl_c_in_a_real_fem_run_exits_130_without_traceback(tmp_path):
-    """SIGINT while the FEM steps: one line, status 130, no results file under its name."""
+@pytest.mark.parametrize("signal_name", ["SIGINT", "SIGTERM"])
+def test_ctrl_c_in_a_real_fem_run_exits_130_without_traceback(signal_name, tmp_path):
+    """SIGINT (Ctrl-C) or SIGTERM (what mpirun sends its ranks on Ctrl-C) while the FEM steps:
+    one line, status 130, no results file under its name."""
     import signal
 
     from tests.test_cache import ROOT, command_environment, wait_for_line
@@ -144,7 +146,7 @@ def test_ctrl_c_in_a_real_fem_run_exits_130_without_traceback(tmp_path):
                                preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     try:
         wait_for_line(process, "FEM G5: N=16", 300)  # meshed, about to step
-        process.send_signal(signal.SIGINT)
+        process.send_signal(getattr(signal, signal_name))
         _, err = process.communicate(timeout=120)
     finally:
         if process.poll() is None:
@@ -302,3 +304,17 @@ def test_library_info_logging_is_silenced():
                           check=True)
     assert "running build_ext" not in done.stderr and "compiling" not in done.stderr
     assert "kept" in done.stderr
+
+
+def test_a_reader_that_leaves_early_gets_no_traceback():
+    """stdout closed before the record is printed (``roughfriction ... | head -1``): exit 141
+    (128 + SIGPIPE), nothing on stderr."""
+    from roughfriction.scripts.cli import EXIT_BROKEN_PIPE
+
+    process = subprocess.Popen([sys.executable, "-m", "roughfriction.scripts.cli", "surface",
+                                "list"], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                               text=True)
+    process.stdout.close()  # before the child has imported anything
+    err = process.stderr.read()
+    assert process.wait(60) == EXIT_BROKEN_PIPE == 141
+    assert err == ""
