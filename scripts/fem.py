@@ -397,6 +397,7 @@ def run_fem(args) -> dict:
         summary = with_warnings({**outcome.result.summary(), **meshed}, case)
         _save(output, case, outcome, comm, {**meshed, "warnings": summary["warnings"]},
               outputs.request)
+        _say_results(output, comm)
         _print_warnings(summary, comm)
         return summary
     return run_levels(case, outputs, limits, meshed, comm)
@@ -440,18 +441,24 @@ def run_levels(case: FemCase, outputs: FemOutputs, limits: LadderLimits, meshed:
     from roughfriction.solver.run import near_flat, run
 
     finest = {}  # the summary of the last level run
+    done: list[dict] = []  # per level run: wall time [s], reduced dofs, cut steps
 
     def run_level(level: int, level_case: FemCase) -> LevelRun:
+        if comm.rank == 0:
+            print(level_header(level, level_case, limits, done, comm.size), file=sys.stderr)
         fem_run = run(level_case, comm, xdmf_directory=outputs.fields if level == 0 else None)
         summary = fem_run.result.summary()
         finest.update(summary)
+        done.append({"wall_s": summary["wall_s"], "cut_steps": summary["cut_steps"],
+                     "reduced_dofs": fem_run.result.sizes["reduced_dofs"]})
         path = outputs.coarse if outputs.coarse is not None and level == 0 else outputs.results
         request = outputs.request if path == outputs.results else ""  # the coarse answers none
         if not fem_run.result.converged:
             _save(path, level_case, fem_run, comm, meshed, request)  # raises ConvergenceError
 
         def save(ladder) -> None:
-            extra = meshed if path == outputs.coarse else {**ladder.summary(), **meshed}
+            extra = (meshed if path == outputs.coarse
+                     else {**ladder_report(ladder.summary(), done), **meshed})
             flags = with_warnings({**summary, **extra}, level_case)["warnings"]
             _save(path, level_case, fem_run, comm, {**extra, "warnings": flags}, request)
 
@@ -464,21 +471,54 @@ def run_levels(case: FemCase, outputs: FemOutputs, limits: LadderLimits, meshed:
                         lambda level_case: level_memory_gb(level_case, comm.size))
     if not ladder.met:
         raise ToleranceNotMet(f"{ladder.shortfall()} (results in {outputs.results})")
-    summary = with_warnings({**finest, **ladder.summary(), **meshed}, case)
+    summary = with_warnings({**finest, **ladder_report(ladder.summary(), done), **meshed}, case)
+    _say_results(outputs.results, comm)
     _print_warnings(summary, comm)
+    if comm.rank == 0:
+        print(f"note: {summary['error_estimate']}", file=sys.stderr)
     return summary
+
+
+def level_header(level: int, level_case: FemCase, limits: LadderLimits, done: list[dict],
+                 ranks: int) -> str:
+    """The line before a level of the ladder: which of how many, its mesh factor, reduced
+    dofs, estimated memory [GB] and (after level 0) predicted wall time [min], the last
+    level's time scaled by the ratio of dofs."""
+    from roughfriction.studies.refinement import LADDER_RATIO, level_dofs
+
+    dofs = level_dofs(level_case)
+    predicted = (f", ~{done[-1]['wall_s'] * dofs / done[-1]['reduced_dofs'] / 60:.2g} min"
+                 if done else "")
+    return (f"level {level} of at most {limits.max_level} ({LADDER_RATIO ** level}x mesh): "
+            f"{dofs} reduced dofs, ~{level_memory_gb(level_case, ranks):.2g} GB{predicted}")
+
+
+def ladder_report(ladder_summary: dict, done: list[dict]) -> dict:
+    """The ladder's summary with the cut steps of every level (``levels.cut_steps`` and
+    their sum ``cut_steps_all_levels``) and ``error_estimate``: what the estimate is and how
+    far it has been shown to hold."""
+    from roughfriction.studies.calibration import coverage_statement
+
+    levels = {**ladder_summary["levels"], "cut_steps": [one["cut_steps"] for one in done]}
+    return {**ladder_summary, "levels": levels,
+            "cut_steps_all_levels": sum(one["cut_steps"] for one in done),
+            "error_estimate": coverage_statement()}
 
 
 def _save(output: Path, case: FemCase, fem_run, comm, extra: dict, request: str) -> None:
     """Write the run's results file (``extra``: added to its summary; ``request``: the
-    command's :func:`request_digest`), name it on stderr (rank 0), and refuse an unconverged
-    run (:func:`_check_converged`)."""
+    command's :func:`request_digest`) and refuse an unconverged run
+    (:func:`_check_converged`)."""
     from roughfriction.studies.results_file import save_run
 
     save_run(output, case, fem_run, comm, extra=extra, request=request)
+    _check_converged(fem_run, output)
+
+
+def _say_results(output: Path, comm) -> None:
+    """Name the results file on stderr (rank 0), once the command's answer is in it."""
     if comm.rank == 0:
         print(f"results: {output}", file=sys.stderr)
-    _check_converged(fem_run, output)
 
 
 def unresolved_warning(summary: dict) -> str | None:

@@ -43,6 +43,27 @@ COLUMNS = ("surface", "window", "n", "load_star", "levels_used", "mu_1x", "mu_2x
            "actual_error", "covered", "sharp", "dofs_reference", "wall_reference_s")
 
 
+#: The calibration table quoted with every error estimate (in the checkout).
+QUOTED_TABLE = Path(__file__).resolve().parent.parent / "docs" / "bench" / "calibration_n8.csv"
+
+
+def coverage_statement(table: Path = QUOTED_TABLE) -> str:
+    """One line on what ``--tol``'s error estimate is and how often it covered the reference
+    in ``table`` (a calibration CSV of :data:`COLUMNS`); without the table, where to read it."""
+    what = "the error estimate is a Richardson extrapolation from the last two or three levels"
+    try:
+        with open(table, newline="") as file:
+            rows = list(csv.DictReader(file))
+    except OSError:
+        return f"{what}; its measured coverage is in docs/verification.md (calibration)"
+    covered = sum(row["covered"] == "True" for row in rows)
+    windows = sorted({int(row["n"]) for row in rows})
+    sizes = ", ".join(f"{n}^2" for n in windows)
+    return (f"{what}; against an {rows[0]['reference_factor']}x reference on {sizes} windows it "
+            f"covered {covered} of {len(rows)} ladders ({table.name}), not yet calibrated on "
+            "whole surfaces")
+
+
 @dataclass(frozen=True)
 class Check:
     """One estimate against the reference: the estimated value and error, and the two

@@ -348,6 +348,7 @@ class Ladder:
         return {
             key: values[-1],
             f"{key}_error": estimate.error if estimate else None,
+            f"{key}_error_relative": estimate.relative_error if estimate else None,
             f"{key}_extrapolated": estimate.extrapolated if estimate else None,
             f"{key}_coarse": values[-2] if len(values) > 1 else None,
             "error_order": estimate.order if estimate else None,

@@ -44,6 +44,29 @@ def test_the_levels_are_contact_adaptive_by_default(tmp_path, capsys):
 
 
 @pytest.mark.fem
+def test_the_ladder_speaks_plainly(tmp_path, capsys):
+    """A header per level (which of how many, factor, dofs, memory, predicted time after the
+    first); the error also relative; every level's cut steps; the results file named once;
+    what the estimate is and its measured coverage."""
+    output = tmp_path / "run.h5"
+    assert main([*WINDOW, "--tol", "0.5", "--max-level", "2", "--output", str(output)]) == 0
+    captured = capsys.readouterr()
+    summary = json.loads(captured.out)
+    headers = [line for line in captured.err.splitlines() if line.startswith("level ")]
+    assert headers[0].startswith("level 0 of at most 2 (1x mesh): ")
+    assert " reduced dofs, ~" in headers[0] and " GB" in headers[0]
+    assert len(headers) == len(summary["levels"]["factor"])
+    assert all(line.endswith(" min") for line in headers[1:])
+    assert summary["mu_s_error_relative"] == pytest.approx(summary["mu_s_error"]
+                                                           / summary["mu_s"])
+    cuts = summary["levels"]["cut_steps"]
+    assert len(cuts) == len(headers) and summary["cut_steps_all_levels"] == sum(cuts)
+    assert captured.err.count(f"results: {output}") == 1
+    assert "Richardson" in summary["error_estimate"]
+    assert f"note: {summary['error_estimate']}" in captured.err
+
+
+@pytest.mark.fem
 def test_a_uniform_ladder_is_an_option_and_is_named_apart(tmp_path, capsys):
     output = tmp_path / "run.h5"
     assert main([*WINDOW, "--refine", "--ladder", "uniform", "--output", str(output)]) == 0
