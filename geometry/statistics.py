@@ -1,4 +1,5 @@
-"""Spectral moments, summit statistics and the plasticity index (paper Eqs. 11-18, 21).
+"""Spectral moments, summit statistics and the plasticity index (paper Eqs. 11-18, 21), and the
+checks of a surface against the FEM's assumptions (periodic closure, small slopes).
 
 The discrete scheme (forward differences along x, h = L / (N - 1)) is the one that reproduces the
 paper's Table 1 (docs/theory.md §2).
@@ -17,6 +18,15 @@ from roughfriction.material import Material
 
 # McCool's summit-height coefficient in Eq. 12 [-]; Eq. 12 needs alpha above it.
 SUMMIT_BANDWIDTH_LIMIT = 0.8968
+# Largest periodic seam ratio [-] (:func:`periodic_seam_ratio`) closed without a warning. For
+# i.i.d. heights the seam is an ordinary step (ratio 1, at most 1.7 over the 8 x 8 windows of
+# G1-G9); 3 is an RMS jump no sample of ordinary steps reaches, while measured scans and their
+# windows, whose long wavelengths do not close, reach 3 to 20.
+MAX_SEAM_RATIO = 3.0
+# Largest RMS slope [-] of the small-strain FEM without a warning: its kinematics and the
+# vertical approach of the rigid flat drop terms of order |grad z|^2 / 2 (the true over the
+# projected area, the tilt of the contact normals), 4.5 % at 0.3.
+SMALL_STRAIN_MAX_SLOPE = 0.3
 
 
 def _finite_heights(heights) -> np.ndarray:
@@ -211,3 +221,95 @@ def surface_statistics(surface: Surface, material: Material) -> SurfaceStatistic
         R=R,
         psi=plasticity_index(sigma_s, R, material),
     )
+
+
+def _seam_and_inner_steps(heights) -> tuple[np.ndarray, np.ndarray]:
+    """Height jumps [m] across the periodic seam (first row minus last, first column minus last)
+    and the differences [m] between neighbours inside the grid, along x and y."""
+    z = _finite_heights(heights)
+    if z.ndim != 2 or min(z.shape) < 2:
+        raise InputError(f"the periodic seam needs a 2-D grid of at least 2 x 2, got {z.shape}")
+    jumps = np.concatenate([z[0] - z[-1], z[:, 0] - z[:, -1]])
+    steps = np.concatenate([np.diff(z, axis=0).ravel(), np.diff(z, axis=1).ravel()])
+    return jumps, steps
+
+
+def _rms(values: np.ndarray) -> float:
+    """Root mean square of ``values``."""
+    return float(np.sqrt(np.mean(values**2)))
+
+
+def periodic_seam_ratio(heights) -> float:
+    """RMS height jump across the periodic seam over the RMS step between neighbours inside.
+
+    The FEM closes a surface periodically (``geometry.surface.periodic_closure``): its last
+    row and column become neighbours of its first. The ratio is about 1 for a periodic or
+    i.i.d. surface and large where the closure adds a step the surface does not have.
+
+    Parameters
+    ----------
+    heights : array_like
+        Heights [m], shape (n, m), all finite, not all equal.
+
+    Returns
+    -------
+    float
+        RMS of the n + m seam jumps over RMS of the 2 n m - n - m inner forward differences [-].
+    """
+    jumps, steps = _seam_and_inner_steps(heights)
+    if not _rms(steps) > 0:
+        raise InputError("the periodic seam of a flat surface has no scale (all heights equal)")
+    return _rms(jumps) / _rms(steps)
+
+
+def periodic_seam_warning(surface: Surface) -> str | None:
+    """A one-line warning when the periodic seam of ``surface`` is a step of its own.
+
+    Parameters
+    ----------
+    surface : Surface
+        The surface the FEM closes periodically (e.g. a window of a measured scan).
+
+    Returns
+    -------
+    str or None
+        The seam's RMS and largest jump [m] against the RMS inner step [m], when
+        :func:`periodic_seam_ratio` exceeds ``MAX_SEAM_RATIO``; else None.
+    """
+    ratio = periodic_seam_ratio(surface.heights)
+    if ratio <= MAX_SEAM_RATIO:
+        return None
+    jumps, steps = _seam_and_inner_steps(surface.heights)
+    return (f"{surface.name or 'surface'}: its periodic seam (last row and column against the "
+            f"first) jumps by {_rms(jumps):.2g} m RMS, {np.max(np.abs(jumps)):.2g} m at most, "
+            f"{ratio:.2g} x the RMS step {_rms(steps):.2g} m between neighbours (above "
+            f"{MAX_SEAM_RATIO:g}): the FEM closes the surface periodically, so contact can sit "
+            "on this seam; another window may close better")
+
+
+def small_strain_slope(surface: Surface) -> tuple[float, str | None]:
+    """The RMS slope of a surface, and a warning when it is beyond the small-strain FEM.
+
+    Small-strain kinematics and a rigid flat approaching along z assume small surface
+    gradients (the small-slope assumption of Johnson, Contact Mechanics, 1985, ch. 4): the
+    neglected terms are of order |grad z|^2 / 2, 4.5 % of the contact area and normal at an RMS
+    slope of ``SMALL_STRAIN_MAX_SLOPE`` = 0.3, 11 % at 0.47.
+
+    Parameters
+    ----------
+    surface : Surface
+        Heights [m] and spacing [m].
+
+    Returns
+    -------
+    tuple
+        ``Surface.rms_slope`` [-], and a one-line warning if it exceeds
+        ``SMALL_STRAIN_MAX_SLOPE`` (else None).
+    """
+    slope = surface.rms_slope
+    if slope <= SMALL_STRAIN_MAX_SLOPE:
+        return slope, None
+    return slope, (f"{surface.name or 'surface'}: RMS slope {slope:.2g} > "
+                   f"{SMALL_STRAIN_MAX_SLOPE:g}, beyond the small-strain FEM: terms of order "
+                   f"slope^2 / 2 = {slope**2 / 2:.0%} of the contact area and normal are "
+                   "neglected")

@@ -13,7 +13,13 @@ from roughfriction.errors import InputError
 READER_FLAGS = {"size": ("--size", None), "height_unit": ("--height-unit", None),
                 "lateral_unit": ("--lateral-unit", None), "fill": ("--fill", None),
                 "crop": ("--crop", False), "resample_pixels": ("--resample-pixels", False),
-                "no_detrend": ("--no-detrend", False)}
+                "no_detrend": ("--no-detrend", False), "allow_flat": ("--allow-flat", False)}
+
+
+def reader_flags(args) -> dict:
+    """The values of :data:`READER_FLAGS` in parsed ``args`` (argparse dest -> value); a flag
+    the parser does not define counts as unset."""
+    return {dest: getattr(args, dest, unset) for dest, (_, unset) in READER_FLAGS.items()}
 
 
 def surface_from_args(args):
@@ -22,21 +28,22 @@ def surface_from_args(args):
     from roughfriction.geometry.generate import builtin_names
     from roughfriction.geometry.readers import load_surface
 
+    flags = reader_flags(args)
     if args.surface in builtin_names():
-        given = [flag for dest, (flag, unset) in READER_FLAGS.items()
-                 if getattr(args, dest) != unset]
+        given = [flag for dest, (flag, unset) in READER_FLAGS.items() if flags[dest] != unset]
         if given:
             raise InputError(f"{', '.join(given)} apply to surface files, not to the built-in "
                              f"surface {args.surface!r}")
     return load_surface(
         args.surface,
-        size=args.size,
-        height_unit=args.height_unit,
-        lateral_unit=args.lateral_unit,
-        fill=args.fill,
-        square="crop" if args.crop else None,
-        pixels="resample" if args.resample_pixels else None,
-        detrend=not args.no_detrend,
+        size=flags["size"],
+        height_unit=flags["height_unit"],
+        lateral_unit=flags["lateral_unit"],
+        fill=flags["fill"],
+        square="crop" if flags["crop"] else None,
+        pixels="resample" if flags["resample_pixels"] else None,
+        detrend=not flags["no_detrend"],
+        allow_flat=flags["allow_flat"],
     )
 
 

@@ -81,23 +81,38 @@ def fem_surface(name: str, n: int, window: int | None = None):
     return surface_window(surface, n, window)
 
 
-def surface_window(surface, n: int, window: int | None = None):
+def surface_window(surface, n: int, window: int | None = None, measured: bool = False):
     """Window ``window`` (0-based, row by row) of the n x n windows of ``surface`` at its own
     spacing (``geometry.surface.windows``); None: the one whose psi is nearest the whole
-    surface's."""
+    surface's.
+
+    ``measured`` (a scan read from a file): each window loses its own least-squares plane before
+    the choice, and a UserWarning says when the chosen one's periodic seam is a step of its own
+    (``geometry.statistics.periodic_seam_warning``). Built-in surfaces' windows are kept as cut
+    (``measured`` False).
+    """
+    import warnings
+
     from roughfriction.errors import InputError
-    from roughfriction.geometry.statistics import surface_statistics
-    from roughfriction.geometry.surface import windows
+    from roughfriction.geometry.statistics import periodic_seam_warning, surface_statistics
+    from roughfriction.geometry.surface import Surface, detrend_plane, windows
     from roughfriction.material import Material
 
     candidates = windows(surface, n)
+    if measured:
+        candidates = [Surface(detrend_plane(one.heights), one.spacing, one.name)
+                      for one in candidates]
     if window is None:
         psi = [surface_statistics(one, Material()).psi for one in (surface, *candidates)]
         window = int(np.argmin(np.abs(np.array(psi[1:]) - psi[0])))
     if not 0 <= window < len(candidates):
         raise InputError(f"{surface.name} has {len(candidates)} windows of {n} x {n} points, "
                          f"not {window + 1}")
-    return candidates[window]
+    chosen = candidates[window]
+    seam = periodic_seam_warning(chosen) if measured else None
+    if seam:
+        warnings.warn(f"window {window + 1} of {seam}", UserWarning, stacklevel=2)
+    return chosen
 
 
 def scatter_windows(name: str, n: int) -> list[int]:

@@ -1,23 +1,29 @@
 """Tests of geometry.readers on synthetic files and the measured samples in data/surfaces."""
 
 import json
+import re
 import sys
+import warnings
 from pathlib import Path
 
 import numpy as np
 import pytest
 from roughfriction.errors import InputError
-from roughfriction.geometry.generate import builtin_surface
+from roughfriction.geometry.generate import builtin_names, builtin_surface
 from roughfriction.geometry.readers import (
+    MAX_RMS_HEIGHT,
+    MIN_RMS_HEIGHT,
+    MIN_RMS_SLOPE,
     load_surface,
     parse_length,
     read_heights,
     read_surface,
     square_pixels,
 )
-from roughfriction.geometry.statistics import rms_height
-from roughfriction.geometry.surface import detrend_plane
+from roughfriction.geometry.statistics import MAX_SEAM_RATIO, periodic_seam_ratio, rms_height
+from roughfriction.geometry.surface import crop_square, detrend_plane, windows
 from roughfriction.scripts.cli import build_parser, surface_from_args
+from roughfriction.studies.paper import surface_window
 
 # The measured samples ship with the repository (data/surfaces/README.md).
 DATA = Path(__file__).resolve().parents[1] / "data" / "surfaces"
@@ -177,7 +183,7 @@ def test_st400_samples(name):
 @needs_data
 def test_st400_unmeasured_point_is_refused_then_filled():
     path = DATA / "nanovea_st400" / "test4.txt"
-    with pytest.raises(InputError, match="'test4': 1 missing"):
+    with pytest.raises(InputError, match="test4.txt: 1 missing"):
         read_surface(path)
     stats = sample_json("nanovea_st400/test4.txt")["stats_after_plane_detrend"]
     for method in ("nearest", "plane"):
@@ -259,6 +265,25 @@ def test_matrix_text_needs_size_and_height_unit(tmp_path, separator):
     np.testing.assert_allclose(surface.heights, field[:5] * 1e-6, rtol=1e-12)
 
 
+@pytest.mark.parametrize("rows", [3, 8])
+def test_a_three_column_matrix_is_not_read_as_points(tmp_path, rows):
+    path = tmp_path / "m.txt"
+    path.write_text("\n".join(" ".join(f"{v:.6f}" for v in row)
+                              for row in asymmetric_field(rows, 3)))
+    message = one_line_error(read_surface, path=path, size="10um", height_unit="um")
+    assert re.search(r"3 columns but not an x-y-z list .*height matrix", message)
+    assert "fmt='xyz'" in message
+
+
+def test_a_three_point_list_on_a_diagonal_is_not_a_grid(tmp_path):
+    path = tmp_path / "diagonal.txt"
+    path.write_text("\n".join(f"{k * 0.005},{k * 0.005},{k}" for k in range(3)))
+    message = one_line_error(read_surface, path=path)
+    assert re.search(r"3 points cover 3 of the 3 x 3 grid", message)
+    forced = one_line_error(read_surface, path=path, fmt="xyz")  # read as points, as asked
+    assert "6 missing" in forced
+
+
 def test_general_reader_errors(tmp_path):
     with pytest.raises(InputError, match="no such file"):
         read_surface(tmp_path / "absent.npy")
@@ -277,10 +302,100 @@ def test_general_reader_errors(tmp_path):
 def test_heights_in_a_wrong_unit_are_refused_by_their_rms_slope(tmp_path):
     path = tmp_path / "microns.npy"
     np.save(path, asymmetric_field())  # um, read as metres: RMS slope ~ 1e5
-    with pytest.raises(InputError, match=r"RMS slope \S+ > 1: .*give --height-unit "):
+    with pytest.raises(InputError, match=r"RMS slope \S+ > 1 .*--height-unit.*--size"):
         read_surface(path, size="25um")
     assert read_surface(path, size="25um", height_unit="um").n == 6
-    assert read_surface(path, size="25um", height_unit="m").n == 6  # the user says so
+    steep = tmp_path / "steep.npy"
+    np.save(steep, asymmetric_field() * 1e-4)  # metres: RMS height < 1 mm, slope > 1
+    with pytest.raises(InputError, match=r"RMS slope \S+ > 1 "):
+        read_surface(steep, size="25um")
+    assert read_surface(steep, size="25um", height_unit="m").n == 6  # the user says so
+
+
+# --- unit slips: implausible RMS heights and slopes ---------------------------------------------
+
+
+def one_line_error(call, **options):
+    """The message of the InputError that ``call(**options)`` raises (it must be one line)."""
+    with pytest.raises(InputError) as error:
+        call(**options)
+    message = str(error.value)
+    assert "\n" not in message
+    return message
+
+
+def npy_size(name, unit="um"):
+    """Scan length of an instrument .npy sample along x: its number of um, followed by ``unit``
+    (another unit makes a unit slip)."""
+    meta = sample_json(f"instruments/{name}.npy")
+    return f"{(meta['nb_grid_pts'][0] - 1) * meta['pixel_size_m'][0] / 1e-6:.6g}{unit}"
+
+
+@needs_data
+def test_heights_in_a_too_small_unit_are_refused_by_their_rms_height():
+    path = DATA / "instruments" / "di-3.npy"  # heights in metres, read as nm
+    message = one_line_error(read_surface, path=path, size=npy_size("di-3"), height_unit="nm")
+    assert re.search(rf"RMS height \S+ m < {MIN_RMS_HEIGHT:g} m .*nm.*--height-unit", message)
+
+
+@needs_data
+def test_heights_in_a_too_large_unit_are_refused_by_their_rms_height():
+    path = DATA / "nanovea_st400" / "test1.txt"  # heights in um, read as mm
+    message = one_line_error(read_surface, path=path, height_unit="mm")
+    assert re.search(rf"RMS height \S+ m > {MAX_RMS_HEIGHT:g} m .*mm.*--height-unit", message)
+
+
+@needs_data
+def test_a_scan_size_in_a_wrong_unit_is_refused_by_its_flat_rms_slope():
+    path = DATA / "instruments" / "al3d-1.npy"
+    size = npy_size("al3d-1", "mm")  # the length in um, written as mm
+    message = one_line_error(read_surface, path=path, size=size, square="crop")
+    assert re.search(rf"RMS slope \S+ < {MIN_RMS_SLOPE:g} .*--size {size}.*--height-unit", message)
+    assert "--allow-flat" in message
+    right = read_surface(path, size=npy_size("al3d-1"), square="crop")
+    flat = read_surface(path, size=size, square="crop", allow_flat=True)  # the user says so
+    assert flat.rms_slope == pytest.approx(right.rms_slope / 1000, rel=1e-2)
+
+
+@needs_data
+def test_a_flat_slope_with_the_height_unit_given_names_the_lateral_flag_only():
+    path = DATA / "instruments" / "al3d-1.npy"
+    message = one_line_error(read_surface, path=path, size=npy_size("al3d-1", "mm"),
+                             height_unit="m", square="crop")
+    assert "--size" in message and "--height-unit" not in message
+
+
+def write_xyz_of(path, surface):
+    """``surface`` as an ST400-style x-y-z list (x, y in mm, z in um)."""
+    return write_xyz(path, numeric(surface.heights * 1e6), step_mm=surface.spacing * 1e3)
+
+
+@needs_data
+def test_a_lateral_unit_slip_on_a_steep_scan_names_the_lateral_unit():
+    path = DATA / "nanovea_st400" / "test3.txt"  # x, y in mm, read as um: slopes 1000 x steeper
+    message = one_line_error(read_surface, path=path, lateral_unit="um")
+    assert re.search(r"RMS slope \S+ > 1 .*x-y in um.*--lateral-unit", message)
+    assert "--height-unit" in message  # too steep: heights too large is as likely
+
+
+def test_a_lateral_unit_slip_on_a_flat_scan_names_the_lateral_unit(tmp_path):
+    path = write_xyz_of(tmp_path / "g1.txt", windows(builtin_surface("G1"), 16)[0])
+    message = one_line_error(read_surface, path=path, lateral_unit="m", height_unit="um")
+    assert re.search(rf"RMS slope \S+ < {MIN_RMS_SLOPE:g} .*x-y in m .*--lateral-unit", message)
+    assert "--height-unit" not in message  # the user gave the heights' unit
+    message = one_line_error(read_surface, path=path, lateral_unit="m")
+    assert "--lateral-unit" in message and "--height-unit" in message
+
+
+@pytest.mark.parametrize("name", builtin_names())
+def test_builtin_surfaces_written_to_files_pass_the_unit_checks(name, tmp_path):
+    surface = builtin_surface(name)
+    path = tmp_path / f"{name}.npy"
+    np.save(path, surface.heights)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        read = read_surface(path, size=surface.scan_length, height_unit="m")  # 63M: slope 1.2
+    assert read.rms_slope == pytest.approx(surface.rms_slope, rel=0.05)
 
 
 # --- instrument formats through SurfaceTopography -----------------------------------------------
@@ -344,6 +459,59 @@ def test_instrument_file_without_an_option_it_needs_names_it(name, option):
 
 
 @needs_data
+@pytest.mark.parametrize("name", sorted(name for name, options in INSTRUMENT_OPTIONS.items()
+                                        if len(options) > 1))
+def test_instrument_file_without_options_names_every_one_it_needs_at_once(name):
+    message = one_line_error(read_surface, path=DATA / "instruments" / name)
+    for option in INSTRUMENT_OPTIONS[name]:
+        assert OPTION_HINTS[option] in message
+    assert f"{len(INSTRUMENT_OPTIONS[name])} problems" in message
+
+
+def test_missing_points_outside_the_crop_are_not_a_problem(tmp_path):
+    z = np.random.default_rng(4).normal(0.0, 0.1e-6, (6, 9))
+    z[0, 0] = np.nan  # in the columns the crop drops
+    path = tmp_path / "z.npy"
+    np.save(path, z)
+    message = one_line_error(read_surface, path=path, size="5um")
+    assert "--crop" in message and "fill" not in message
+    cropped = read_surface(path, size="5um", square="crop", detrend=False)
+    np.testing.assert_array_equal(cropped.heights, crop_square(z))
+
+
+@needs_data
+def test_crop_says_how_much_of_the_grid_it_dropped():
+    path = DATA / "instruments" / "x3p-2.x3p"
+    resampled, _ = square_pixels(*read_heights(path))
+    kept = min(resampled.shape) ** 2 / resampled.size
+    with pytest.warns(UserWarning) as notes:
+        read_surface(path, pixels="resample", square="crop")
+    crop_notes = [str(note.message) for note in notes if "--crop" in str(note.message)]
+    assert len(crop_notes) == 1
+    shape = f"{resampled.shape[0]} x {resampled.shape[1]}"
+    assert f"of {shape} points" in crop_notes[0]
+    assert f"dropped {1 - kept:.0%}" in crop_notes[0]
+
+
+@pytest.mark.parametrize("method", ["nearest", "plane"])
+def test_fill_says_how_many_heights_it_filled(tmp_path, method):
+    z = np.random.default_rng(5).normal(0.0, 0.1e-6, (8, 8))
+    z[[1, 4, 6], [2, 2, 7]] = np.nan
+    path = tmp_path / "holes.npy"
+    np.save(path, z)
+    with pytest.warns(UserWarning, match=rf"--fill={method} filled the missing heights: 3 of 64 "):
+        read_surface(path, size="7um", fill=method)
+
+
+def test_a_complete_square_grid_reads_without_notes(tmp_path):
+    path = tmp_path / "z.npy"
+    np.save(path, np.random.default_rng(6).normal(0.0, 0.1e-6, (8, 8)))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        read_surface(path, size="7um", square="crop", fill="nearest")
+
+
+@needs_data
 @pytest.mark.parametrize("name", ["al3d-1.al3d", "di-3.di", "opd-1.opd", "sur-2.sur"])
 def test_instrument_file_matches_its_npy_conversion(name):
     path = DATA / "instruments" / name
@@ -384,6 +552,28 @@ def test_cli_resample_pixels_flag_reaches_the_reader():
     )
     surface = surface_from_args(args)
     assert surface.n == 650 and surface.spacing == pytest.approx(1.27656509837346e-07, rel=1e-12)
+
+
+# --- windows of measured scans ------------------------------------------------------------------
+
+
+@needs_data
+def test_a_measured_window_is_detrended_and_its_seam_is_measured():
+    surface = read_surface(DATA / "instruments" / "al3d-1.al3d", square="crop")
+    with pytest.warns(UserWarning, match="periodic seam") as notes:
+        window = surface_window(surface, 32, 0, measured=True)
+    raw = windows(surface, 32)[0].heights
+    np.testing.assert_allclose(window.heights, detrend_plane(raw), rtol=0, atol=1e-15)
+    ratio = periodic_seam_ratio(window.heights)
+    assert ratio > MAX_SEAM_RATIO and f"{ratio:.2g}" in str(notes[0].message)
+
+
+def test_builtin_windows_stay_as_cut():
+    surface = builtin_surface("G5")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        window = surface_window(surface, 32, 5)
+    np.testing.assert_array_equal(window.heights, windows(surface, 32)[5].heights)
 
 
 # --- load_surface -------------------------------------------------------------------------------

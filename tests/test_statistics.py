@@ -7,16 +7,21 @@ import pytest
 from roughfriction.errors import InputError
 from roughfriction.geometry.generate import builtin_surface, gaussian_surface
 from roughfriction.geometry.statistics import (
+    MAX_SEAM_RATIO,
+    SMALL_STRAIN_MAX_SLOPE,
     SurfaceStatistics,
     bandwidth_parameter,
+    periodic_seam_ratio,
+    periodic_seam_warning,
     plasticity_index,
     rms_height,
+    small_strain_slope,
     spectral_moments,
     summit_height_std,
     summit_radius,
     surface_statistics,
 )
-from roughfriction.geometry.surface import Surface
+from roughfriction.geometry.surface import Surface, windows
 from roughfriction.material import Material
 
 PAPER = Material()
@@ -130,3 +135,47 @@ def test_surface_statistics_fields_are_consistent_si_values():
 def test_zero_roughness_is_refused(offset):
     with pytest.raises(InputError, match="zero roughness"):
         surface_statistics(Surface(np.full((8, 8), offset), H, "flat"), PAPER)
+
+
+# --- periodic seam and small-strain slope -------------------------------------------------------
+
+
+def test_seam_ratio_of_a_ramp_is_its_rise_over_one_step():
+    n = 12
+    ramp = np.indices((n, n), dtype=float)[0] * 1e-8  # rises along x only
+    # seam: n jumps of (n - 1) steps along x and n zero jumps along y; inside: n (n - 1) steps
+    # of 1 along x and as many zeros along y
+    assert periodic_seam_ratio(ramp) == pytest.approx(n - 1, rel=1e-12)
+
+
+def test_seam_ratio_of_iid_heights_is_an_ordinary_step():
+    for window in windows(builtin_surface("G5"), 16):
+        assert periodic_seam_ratio(window.heights) < MAX_SEAM_RATIO / 2
+
+
+def test_seam_ratio_refuses_flat_and_tiny_grids():
+    with pytest.raises(InputError, match="flat"):
+        periodic_seam_ratio(np.ones((4, 4)))
+    with pytest.raises(InputError, match="2 x 2"):
+        periodic_seam_ratio(np.ones((1, 4)))
+
+
+def test_seam_warning_names_the_jump_and_the_step_only_when_large():
+    n = 8
+    ramp = Surface(np.indices((n, n), dtype=float)[0] * 1e-8, H, "ramp")
+    warning = periodic_seam_warning(ramp)
+    assert warning is not None and "\n" not in warning
+    assert f"{periodic_seam_ratio(ramp.heights):.2g} x" in warning and "ramp" in warning
+    assert periodic_seam_warning(windows(builtin_surface("G5"), 16)[0]) is None
+
+
+@pytest.mark.parametrize("factor", [0.5, 2.0])
+def test_small_strain_slope_warns_above_its_limit_only(factor):
+    slope = factor * SMALL_STRAIN_MAX_SLOPE
+    i, j = np.indices((8, 8), dtype=float)
+    plane = Surface(slope * H * (0.6 * i + 0.8 * j), H, "tilted")  # |grad z| = slope
+    value, warning = small_strain_slope(plane)
+    assert value == pytest.approx(slope, rel=1e-12)
+    assert (warning is not None) == (factor > 1)
+    if warning:
+        assert f"{slope:.2g}" in warning and f"{SMALL_STRAIN_MAX_SLOPE:g}" in warning
