@@ -96,6 +96,8 @@ def emit(record: dict, as_json: bool) -> None:
 
 def add_surface_arguments(parser: argparse.ArgumentParser) -> None:
     """SURFACE and the reader options shared by every subcommand that takes a surface."""
+    from roughfriction.geometry.readers import MIN_RMS_SLOPE
+
     parser.add_argument(
         "surface",
         metavar="SURFACE",
@@ -133,6 +135,9 @@ def add_surface_arguments(parser: argparse.ArgumentParser) -> None:
     group.add_argument(
         "--no-detrend", action="store_true", help="keep the least-squares plane of the data"
     )
+    group.add_argument("--allow-flat", action="store_true",
+                       help=f"keep a surface whose RMS slope is below {MIN_RMS_SLOPE:g} (refused "
+                       "otherwise as a --size/--lateral-unit or --height-unit slip)")
 
 
 def config_material(args) -> Material:

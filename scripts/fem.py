@@ -194,7 +194,8 @@ def case_from_args(args, surface: Surface, comm=None) -> FemCase:
         material = material_from_table(config.get("material", {}))
         loading = Loading(float(load), normal_only=bool(setting("normal_only")))
         return FemCase(
-            surface=meshed_surface(surface, n, getattr(args, "window", None), material, comm),
+            surface=meshed_surface(surface, n, getattr(args, "window", None), material, comm,
+                                   measured=is_measured(args)),
             loading=loading,
             material=material,
             mesh=mesh,
@@ -204,32 +205,56 @@ def case_from_args(args, surface: Surface, comm=None) -> FemCase:
         raise InputError(f"bad case settings: {error}") from None
 
 
+def is_measured(args) -> bool:
+    """Whether the command's surface is a scan read from a file (not a built-in surface)."""
+    from roughfriction.geometry.generate import builtin_names
+
+    return args.surface not in builtin_names()
+
+
 def meshed_surface(surface: Surface, n: int | None, window: str | None, material: Material,
-                   comm=None) -> Surface:
+                   comm=None, measured: bool = False) -> Surface:
     """The surface the FEM meshes on n x n cells: window ``window`` ('best' or 1, 2, ...) at
-    the surface's own spacing, or the surface re-gridded (``surface_on_fem_grid``), which is
-    noted on stderr (rank 0) with the psi (for ``material``) before and after when it makes it
-    smoother."""
+    the surface's own spacing (of a ``measured`` scan: detrended, its periodic seam checked),
+    or the surface re-gridded (``surface_on_fem_grid``), which is noted on stderr (rank 0) with
+    the psi (for ``material``) before and after. Then :func:`surface_notes` on stderr."""
     from roughfriction.studies.api import regrid_note
     from roughfriction.studies.paper import surface_window
 
-    if window is not None:
+    if window is None:
+        meshed = surface_on_fem_grid(surface, n)
+        notes = [f"note: {line}" for line in (regrid_note(surface, meshed, material),) if line]
+    else:
         if n is None or n >= surface.n:
             raise InputError(f"--window needs --n below the surface's {surface.n} points per side")
-        if window == "best":
-            return surface_window(surface, n)
-        try:
-            index = int(window)
-        except ValueError:
-            raise InputError(f"--window takes 'best' or a window number, got {window!r}") from None
-        if index < 1:
-            raise InputError(f"--window counts from 1, got {index}")
-        return surface_window(surface, n, index - 1)
-    meshed = surface_on_fem_grid(surface, n)
-    note = regrid_note(surface, meshed, material)
-    if note and (comm is None or comm.rank == 0):
-        print(f"note: {note}", file=sys.stderr)
+        index = None if window == "best" else _window_index(window)
+        meshed, notes = surface_window(surface, n, index, measured=measured), []
+    notes += surface_notes(meshed, measured and window is None)
+    if comm is None or comm.rank == 0:
+        for line in notes:
+            print(line, file=sys.stderr)
     return meshed
+
+
+def _window_index(window: str) -> int:
+    """The 0-based index of ``--window K`` (K = 1, 2, ...)."""
+    try:
+        index = int(window)
+    except ValueError:
+        raise InputError(f"--window takes 'best' or a window number, got {window!r}") from None
+    if index < 1:
+        raise InputError(f"--window counts from 1, got {index}")
+    return index - 1
+
+
+def surface_notes(meshed: Surface, whole_scan: bool) -> list[str]:
+    """Warnings on the surface as meshed: an RMS slope beyond the small-strain FEM
+    (``geometry.statistics.small_strain_slope``) and, for a ``whole_scan`` meshed as
+    measured, a periodic seam that is a step of its own (a window says it itself)."""
+    from roughfriction.geometry.statistics import periodic_seam_warning, small_strain_slope
+
+    found = [small_strain_slope(meshed)[1], periodic_seam_warning(meshed) if whole_scan else None]
+    return [f"warning: {line}" for line in found if line]
 
 
 #: Folder of the default results files.

@@ -4,6 +4,7 @@ import json
 import signal
 import subprocess
 import sys
+from pathlib import Path
 
 import dolfinx  # noqa: E402, F401  (an install without the FEM fails here)
 import h5py  # noqa: E402
@@ -356,3 +357,34 @@ def test_a_killed_xdmf_run_leaves_the_previous_fields_as_they_were(tmp_path):
     visible = {path.name: path.read_bytes() for path in fields.iterdir()
                if not path.name.startswith(".")}
     assert visible == before
+
+
+DATA = Path(__file__).resolve().parents[1] / "data" / "surfaces"
+
+
+def test_a_measured_window_is_detrended_and_its_seam_warned(capsys):
+    """al3d-1's 32 x 32 window 1: the FEM closes it periodically across a jump many times its
+    neighbour steps; warned, and the window meshed without its plane."""
+    from roughfriction.geometry.readers import load_surface
+    from roughfriction.scripts.fem import meshed_surface
+
+    scan = load_surface(str(DATA / "instruments" / "al3d-1.al3d"), square="crop")
+    capsys.readouterr()
+    with pytest.warns(UserWarning, match="window 1 of al3d-1: .*seam"):
+        window = meshed_surface(scan, 32, "1", Material(), measured=True)
+    heights = window.heights
+    x = np.arange(32.0)[:, None] * np.ones(32)
+    assert abs(np.sum((heights - heights.mean()) * x)) < 1e-9 * np.abs(heights).sum() * 32
+    as_cut = meshed_surface(scan, 32, "1", Material())
+    assert not np.allclose(as_cut.heights - as_cut.heights.mean(), heights)
+
+
+def test_a_steep_scan_is_warned_about_before_the_small_strain_run(capsys):
+    from roughfriction.geometry.readers import load_surface
+    from roughfriction.scripts.fem import meshed_surface
+
+    scan = load_surface(str(DATA / "nanovea_st400" / "test3.txt"))
+    meshed_surface(scan, None, None, Material(), measured=True)
+    warning, = [line for line in capsys.readouterr().err.splitlines()
+                if line.startswith("warning: ")]
+    assert "RMS slope 0.47 > 0.3, beyond the small-strain FEM" in warning
