@@ -39,9 +39,6 @@ import numpy as np
 from roughfriction.case import MeshOptions, ZoneRefinement
 from roughfriction.errors import InputError
 from roughfriction.geometry.mesh import (
-    MEMORY_PER_DOF_GB,
-    MEMORY_PER_RANK_GB,
-    contact_memory_gb,
     layer_layout,
 )
 from roughfriction.geometry.surface import bilinear_refine
@@ -517,13 +514,3 @@ def reduced_dofs(grid: np.ndarray, cells: CellSizes) -> int:
 def layout_dofs(layout: AdaptiveLayout) -> int:
     """Reduced dofs of the adaptive block (:func:`reduced_dofs`) [-]."""
     return reduced_dofs(adaptive_block(layout.cells)[0], layout.cells)
-
-
-def estimated_memory_gb(layout: AdaptiveLayout, ranks: int, dofs: int | None = None) -> float:
-    """Peak memory of an FEM run on the adaptive block, summed over ``ranks`` ranks [GB]: the
-    fit of ``geometry.mesh.estimated_memory_gb`` with this block's reduced ``dofs`` (default
-    :func:`layout_dofs`) and the contact of the finest grid's N^2 surface nodes
-    (``geometry.mesh.contact_memory_gb``, as if every face were finest)."""
-    dofs = layout_dofs(layout) if dofs is None else dofs
-    return (ranks * MEMORY_PER_RANK_GB + contact_memory_gb(layout.grid_size, ranks)
-            + MEMORY_PER_DOF_GB * dofs)

@@ -164,30 +164,6 @@ def mesh_size(n: int, options: MeshOptions) -> tuple[int, int]:
     return cells, int(3 * sum((n // stride) ** 2 for stride in layer_stride))
 
 
-#: Peak memory of a run, summed over ranks: MEMORY_PER_RANK_GB per rank, plus
-#: CONTACT_MEMORY_PER_NODE_GB per surface grid node a rank evaluates (:func:`contact_memory_gb`),
-#: plus MEMORY_PER_DOF_GB per reduced dof [GB] (an upper fit of ``make bench-fem``, N = 32-128
-#: on 2 ranks, whose high-load rows need the most per dof, of the 2x mesh of a 128^2 surface,
-#: and of the contact arrays alone to N = 512).
-MEMORY_PER_RANK_GB = 0.2
-CONTACT_MEMORY_PER_NODE_GB = 6.5e-6
-MEMORY_PER_DOF_GB = 7e-6
-#: Grid rows beyond its own slab whose faces a rank evaluates (two rings on either side) [-].
-CONTACT_HALO_ROWS = 8
-
-
-def contact_memory_gb(n: int, ranks: int) -> float:
-    """Memory of the contact evaluation of an n x n surface grid, summed over ``ranks`` ranks
-    [GB]: each evaluates the faces of its slab of n / ranks grid rows and a halo."""
-    return CONTACT_MEMORY_PER_NODE_GB * n * (n + CONTACT_HALO_ROWS * ranks)
-
-
-def estimated_memory_gb(n: int, options: MeshOptions, ranks: int) -> float:
-    """Peak memory of an FEM run on an n x n surface, summed over ``ranks`` ranks [GB]."""
-    return (ranks * MEMORY_PER_RANK_GB + contact_memory_gb(n, ranks)
-            + MEMORY_PER_DOF_GB * mesh_size(n, options)[1])
-
-
 def node_layer_stride(layer_stride: np.ndarray) -> np.ndarray:
     """Lateral node spacing of each node layer [grid spacings], bottom to top: that of the cell
     layer above it (the finer one), the top layer's for the surface."""

@@ -170,7 +170,7 @@ def case_from_args(args, surface: Surface, comm=None) -> FemCase:
     communicator), a case file that one rank cannot read stops every rank, and an ``--n``
     whose run would not fit in memory is refused before re-gridding."""
     if comm is not None:
-        from roughfriction.solver.run import check_memory
+        from roughfriction.solver.memory import check_memory
     config = (read_config(args.config) if comm is None
               else agreed(comm, lambda: read_config(args.config)))
 
@@ -432,7 +432,7 @@ def ladder_limits(args, comm) -> LadderLimits | None:
     """The levels the command line asks for (``--tol`` and its limits; ``--refine``: levels 0
     and 1 without a tolerance), None for a single run. The memory limit is the smaller of
     ``--max-memory`` and what is available to ``comm``'s ranks."""
-    from roughfriction.solver.run import available_memory_gb
+    from roughfriction.solver.memory import available_memory_gb
 
     tolerance = getattr(args, "tol", None)
     limited = [f"--{name.replace('_', '-')}" for name in ("max_level", "max_memory", "max_time")

@@ -13,21 +13,17 @@ from pathlib import Path
 
 import numpy as np
 from mpi4py import MPI
-from roughfriction.case import FemCase, Loading, MeshOptions
-from roughfriction.errors import InputError
+from roughfriction.case import FemCase, Loading
 from roughfriction.geometry.adaptive import (
-    AdaptiveLayout,
     CellSizes,
-    layout_dofs,
 )
-from roughfriction.geometry.adaptive import estimated_memory_gb as adaptive_memory_gb
-from roughfriction.geometry.mesh import Block, blend_layers_needed, estimated_memory_gb, mesh_size
+from roughfriction.geometry.mesh import Block, blend_layers_needed
 from roughfriction.solver.block import block_layout, build_block
 from roughfriction.solver.contact import ContactResponse, RigidFlat
 from roughfriction.solver.contact_law import ContactLaw
 from roughfriction.solver.equilibrium import Equilibrium
 from roughfriction.solver.fields import FieldWriter
-from roughfriction.solver.linear import node_memory_available_gb
+from roughfriction.solver.memory import check_memory
 from roughfriction.solver.periodic import PeriodicReduction, dof_node_grid_index
 from roughfriction.solver.progress import LoadStarted, RunStarted
 from roughfriction.solver.results import FemResult, near_flat_nodes
@@ -69,33 +65,6 @@ def peak_memory_gb() -> float:
         return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2**20
     kib = next(line.split()[1] for line in status.splitlines() if line.startswith("VmHWM:"))
     return int(kib) / 2**20
-
-
-def available_memory_gb(comm: MPI.Comm) -> float:
-    """Memory available to new allocations on the nodes that ``comm``'s ranks run on (Linux
-    MemAvailable, each node counted once) [GB]; infinite where it cannot be read."""
-    node = comm.Split_type(MPI.COMM_TYPE_SHARED)
-    available = node_memory_available_gb() if node.rank == 0 else 0.0
-    node.Free()
-    return comm.allreduce(available, op=MPI.SUM)
-
-
-def check_memory(n: int, options: MeshOptions, comm: MPI.Comm,
-                 layout: AdaptiveLayout | None = None) -> None:
-    """Refuse, before allocating anything, an n x n surface whose FEM block would not fit in
-    the memory available to the run (:func:`geometry.mesh.estimated_memory_gb`, or
-    :func:`geometry.adaptive.estimated_memory_gb` for the adaptive ``layout``)."""
-    if layout is None:
-        dofs, what = mesh_size(n, options)[1], f"N = {n}"
-        needed = estimated_memory_gb(n, options, comm.size)
-    else:
-        dofs, what = layout_dofs(layout), f"N = {n} refined to level {layout.level}"
-        needed = adaptive_memory_gb(layout, comm.size, dofs)
-    available = available_memory_gb(comm)
-    if needed > available:
-        raise InputError(f"{what}: the FEM run needs about {needed:.3g} GB ({dofs:.3g} dofs), "
-                         f"{available:.3g} GB are available; use a smaller --n, less "
-                         "refinement or more nodes")
 
 
 def near_flat(case: FemCase, fem_run: FemRun) -> np.ndarray:

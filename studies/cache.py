@@ -27,9 +27,7 @@ Imports without dolfinx; the FEM stack is imported when a run is computed.
 
 from __future__ import annotations
 
-import ast
 import hashlib
-import importlib.util
 import json
 import os
 import sys
@@ -41,75 +39,24 @@ from pathlib import Path
 from roughfriction.case import FemCase, Loading
 from roughfriction.errors import InputError
 from roughfriction.solver.results import StepRecord
+from roughfriction.studies.physics import (  # noqa: F401  (the cache's keys, re-exported)
+    OUTPUT_IMPORTS,
+    PHYSICS_MODULES,
+    SOLVER_OUTPUT_MODULES,
+    code_without_documentation,
+    physics_sources,
+    physics_version,
+)
 from roughfriction.studies.results_file import FILE_FORMAT, save_run
 
 #: Environment variable naming the cache directory (default ``results/runs``).
 RUNS_VARIABLE = "ROUGHFRICTION_RUNS"
 DEFAULT_RUNS = Path("results/runs")
-#: The modules whose code determines an FEM result. Declared, not inferred: output, progress,
-#: reading and study code change freely without discarding runs. Every module of the solver
-#: package is either here or in :data:`SOLVER_OUTPUT_MODULES` (a test checks it), so that a new
-#: module is classified before it lands.
-PHYSICS_MODULES = (
-    "roughfriction.material", "roughfriction.case", "roughfriction.geometry.surface",
-    "roughfriction.geometry.mesh", "roughfriction.geometry.adaptive",
-    "roughfriction.solver.block", "roughfriction.solver.contact",
-    "roughfriction.solver.contact_law", "roughfriction.solver.equilibrium",
-    "roughfriction.solver.newton", "roughfriction.solver.reduced_assembly",
-    "roughfriction.solver.reduced_system",
-    "roughfriction.solver.linear",
-    "roughfriction.solver.periodic", "roughfriction.solver.plasticity",
-    "roughfriction.solver.solid", "roughfriction.solver.stepping", "roughfriction.solver.run",
-    "roughfriction.solver.results",
-)
-#: Modules of the solver package that do not change results (field output, progress).
-SOLVER_OUTPUT_MODULES = ("roughfriction.solver", "roughfriction.solver.fields",
-                         "roughfriction.solver.progress")
-#: Other modules the physics modules import that do not change results (errors, file
-#: writing); any other import of a physics module must itself be one (a test checks it).
-OUTPUT_IMPORTS = ("roughfriction.errors", "roughfriction.files",
-                  "roughfriction.geometry.mesh_file")
 #: Layout version of an entry: that of the results file, whose writer
 #: (:mod:`studies.results_file`) is not physics.
 ENTRY_FORMAT = FILE_FORMAT
 
 # --- keys ------------------------------------------------------------------------------------
-
-
-def physics_sources() -> dict[str, Path]:
-    """The source file of each of :data:`PHYSICS_MODULES` (located through their packages,
-    without importing them)."""
-    sources = {}
-    for name in PHYSICS_MODULES:
-        package, _, module = name.rpartition(".")
-        folder = importlib.util.find_spec(package).submodule_search_locations[0]
-        sources[name] = Path(folder) / f"{module}.py"
-    return sources
-
-
-def code_without_documentation(source: str) -> str:
-    """The abstract syntax tree of Python ``source`` as text, without its comments (the parser
-    drops them), docstrings (module, class, function) and line numbers."""
-    tree = ast.parse(source)
-    for node in ast.walk(tree):
-        if isinstance(node, (ast.Module, ast.ClassDef, ast.FunctionDef, ast.AsyncFunctionDef)):
-            body = node.body
-            if (body and isinstance(body[0], ast.Expr) and isinstance(body[0].value, ast.Constant)
-                    and isinstance(body[0].value.value, str)):
-                node.body = body[1:] or [ast.Pass()]
-    return ast.dump(tree)
-
-
-def physics_version(sources: dict[str, Path] | None = None) -> str:
-    """SHA-256 of the names and code (:func:`code_without_documentation`) of the physics
-    modules (``sources``: module name -> file, default :func:`physics_sources`; read from the
-    files, not git)."""
-    digest = hashlib.sha256()
-    for name, path in sorted((sources or physics_sources()).items()):
-        code = code_without_documentation(Path(path).read_text()).encode()
-        digest.update(f"{name}\0{len(code)}\0".encode())
-        digest.update(code)
-    return digest.hexdigest()
 
 
 def _digest(record: dict) -> str:

@@ -43,8 +43,7 @@ from roughfriction.geometry.adaptive import (
     surface_levels,
     zone_escaped,
 )
-from roughfriction.geometry.adaptive import estimated_memory_gb as adaptive_memory_gb
-from roughfriction.geometry.mesh import blend_layers_needed, estimated_memory_gb, mesh_size
+from roughfriction.geometry.mesh import blend_layers_needed, mesh_size
 from roughfriction.geometry.surface import Surface, bilinear_refine
 
 #: Order assumed with two meshes [-].
@@ -112,9 +111,11 @@ def level_dofs(case: FemCase) -> int:
 
 def level_memory_gb(case: FemCase, ranks: int) -> float:
     """Estimated peak memory of a case's run on ``ranks`` ranks, structured or adaptive [GB]."""
+    from roughfriction.solver.memory import adaptive_memory_gb, structured_memory_gb
+
     layout = level_layout(case)
     if layout is None:
-        return estimated_memory_gb(case.surface.n, case.mesh, ranks)
+        return structured_memory_gb(case.surface.n, case.mesh, ranks)
     return adaptive_memory_gb(layout, ranks)
 
 

@@ -17,6 +17,7 @@ import numpy as np
 from roughfriction.case import FemCase
 from roughfriction.files import agreed, atomic_write
 from roughfriction.solver.results import FemResult, StepRecord
+from roughfriction.studies.physics import physics_version
 
 #: Layout version of a results file (bumped when what a file holds changes; it keys the cache).
 FILE_FORMAT = 2
@@ -85,7 +86,6 @@ def write_hdf5(path: Path, inputs: dict, result: FemResult, maps: dict, note: st
 def _write_hdf5(path, inputs: dict, result: FemResult, summary: dict, maps: dict,
                 provenance: dict) -> None:
     import h5py
-    from roughfriction.studies.cache import physics_version  # the cache writes through here
 
     # Provenance first: importing the FEM stack while the file is open leaves it locked.
     versions, revision, physics = package_versions(), git_revision(), physics_version()
