@@ -221,6 +221,11 @@ class SolverOptions:
         curve and where inception falls: ``bench path``).
     max_slide : float
         Give up (unconverged) if sliding has not started after this multiple of tau_c H / G [-].
+    stuck_shear_tolerance : float
+        Sliding inception: every contact node slips, or the shear the sticking contact could
+        still add (its c(p) - t_x over its area) is at most this fraction of F_t, so that nodes
+        that have just touched, stuck at a small pressure, do not hold the flat on its
+        plateau of F_t [-].
     max_steps : int
         Upper bound on accepted plus cut steps [-].
     """
@@ -243,6 +248,7 @@ class SolverOptions:
     first_slide: float = 0.02
     max_slide_increment: float = 0.25
     max_slide: float = 20.0
+    stuck_shear_tolerance: float = 1e-3
     max_steps: int = 300
 
     def __post_init__(self):
@@ -252,7 +258,8 @@ class SolverOptions:
             raise InputError(
                 f"linear solver must be one of {LINEAR_SOLVERS}, got {self.linear_solver!r}")
         positive = ("penalty", "tangential_penalty", "penetration_tolerance", "residual_tolerance",
-                    "increment_tolerance", "first_slide", "max_slide", "max_slide_increment")
+                    "increment_tolerance", "first_slide", "max_slide", "max_slide_increment",
+                    "stuck_shear_tolerance")
         for name, value in ((name, getattr(self, name)) for name in positive):
             if not (math.isfinite(value) and value > 0):
                 raise InputError(f"solver option {name} must be > 0, got {value}")

@@ -633,6 +633,14 @@ class RigidFlat:
         """F_t = integral of t_x: the x force needed to hold the flat [N]."""
         return self.integrate(response.traction[:, 0])
 
+    def stuck_shear_reserve(self, response: ContactResponse) -> float:
+        """The x force the sticking contact points could still add before they slip: the
+        integral of c(p) - t_x over the points in contact below the cap [N] (a collective
+        call)."""
+        sticking = response.in_contact & ~response.slipping
+        reserve = self.law.shear_cap(response.pressure) - response.traction[:, 0]
+        return self.integrate(np.where(sticking, reserve, 0.0))
+
     def area_ratio(self, mask: np.ndarray) -> float:
         """Fraction of the nominal area whose points satisfy ``mask`` (e.g. p > 0) [-]."""
         return self.integrate(mask) / (self.grid_size * self.spacing) ** 2

@@ -48,6 +48,10 @@ class StepRecord:
         Failed attempts (step cuts) just before this step was accepted [-].
     cut_iterations : int
         Newton iterations of those failed attempts [-].
+    stuck_shear_share : float
+        The shear the sticking contact could still add, over F_t
+        (``RigidFlat.stuck_shear_reserve``; 0 when every contact point slips, NaN in the
+        preload) [-].
     """
 
     phase: str
@@ -65,13 +69,57 @@ class StepRecord:
     wall_s: float
     cuts: int = 0
     cut_iterations: int = 0
+    stuck_shear_share: float = 0.0
 
     def __str__(self) -> str:
         """One progress line."""
         return (f"{self.phase:10s} Fn={self.normal_force:.5e} N Ft={self.tangential_force:.5e} N "
                 f"ux={self.slide:.4e} m Ar/An={self.area_ratio:.4f} nodes={self.contact_nodes} "
-                f"slip={self.slipping_nodes} plastic={self.plastic_volume_fraction:.4f} "
+                f"slip={self.slipping_nodes} stuck={self.stuck_shear_share:.1e} "
+                f"plastic={self.plastic_volume_fraction:.4f} "
                 f"newton={self.newton_iterations} t={self.wall_s:.1f}s")
+
+
+@dataclass(frozen=True)
+class SlipState:
+    """What sliding inception is judged on at one sliding step.
+
+    Attributes
+    ----------
+    slipping_nodes, contact_nodes : int
+        Contact nodes slipping, and in contact [-].
+    stuck_shear_share : float
+        The shear the sticking contact could still add, over F_t [-].
+    force_change : float
+        |F_t - F_t of the sliding step before| / F_t [-] (inf at the first sliding step).
+    """
+
+    slipping_nodes: int
+    contact_nodes: int
+    stuck_shear_share: float
+    force_change: float
+
+
+def at_inception(state: SlipState, tolerance: float) -> bool:
+    """Sliding inception (the paper's "all contact elements slide"): some node touches, and
+    every contact node slips, or F_t is on its plateau with the sticking nodes unable to
+    raise it: the shear they could still add and F_t's change over the last step are both at
+    most ``tolerance`` of F_t (a node that has just touched, stuck at a small pressure, does
+    not hold the flat) [-]."""
+    if state.contact_nodes == 0:
+        return False
+    return state.slipping_nodes == state.contact_nodes or (
+        state.stuck_shear_share <= tolerance and state.force_change <= tolerance)
+
+
+def slip_state(records) -> SlipState:
+    """The :class:`SlipState` of the last of ``records`` (:class:`StepRecord`, the last a
+    sliding step), its force change against the sliding step before it."""
+    last = records[-1]
+    before = [record for record in records[:-1] if record.phase == "tangential"]
+    change = (abs(last.tangential_force - before[-1].tangential_force) / last.tangential_force
+              if before and last.tangential_force > 0.0 else float("inf"))
+    return SlipState(last.slipping_nodes, last.contact_nodes, last.stuck_shear_share, change)
 
 
 def touched_nodes(maps: dict) -> np.ndarray:

@@ -19,7 +19,13 @@ from roughfriction.solver.contact import ContactResponse
 from roughfriction.solver.equilibrium import Equilibrium
 from roughfriction.solver.newton import LoadStep, NewtonReport
 from roughfriction.solver.progress import StepCut
-from roughfriction.solver.results import StepRecord, count_patches
+from roughfriction.solver.results import (
+    SlipState,
+    StepRecord,
+    at_inception,
+    count_patches,
+    slip_state,
+)
 
 GROWTH = 1.5
 #: Grow the step after at most this many Newton iterations [-].
@@ -30,9 +36,13 @@ MIN_FRACTION = 1e-3
 FORCE_CONTROLLED = 0.1
 
 
-def at_inception(slipping_nodes: int, contact_nodes: int) -> bool:
-    """Sliding inception: every contact node slips (and some node touches) [-]."""
-    return 0 < slipping_nodes == contact_nodes
+def stuck_shear_share(flat, contact: ContactResponse) -> float:
+    """``RigidFlat.stuck_shear_reserve`` over F_t [-] (inf where F_t <= 0 with a reserve, 0
+    without contact)."""
+    reserve, force = flat.stuck_shear_reserve(contact), flat.tangential_force(contact)
+    if reserve <= 0.0:
+        return 0.0
+    return reserve / force if force > 0.0 else float("inf")
 
 
 @dataclass(frozen=True)
@@ -221,13 +231,15 @@ class LoadPath:
         size = StepSize(options.first_slide * scale, options.max_slide_increment * scale)
         slide = 0.0
         last = None  # increment of the last accepted sliding step [m]
+        last_force = None  # its F_t [N]
         while True:
             trial = slide + size.value
             if last is not None:
                 self.equilibrium.extrapolate(size.value / last)
             report = self._attempt(LoadStep(target, trial, friction=True,
                                             predictor=last is None, marks_path=True))
-            if report is not None and report.converged and self._slips(report.contact):
+            if (report is not None and report.converged
+                    and self._slips(report.contact, last_force)):
                 report = self._tighten(report, target, trial)
             if report is None:
                 return Outcome(False, f"step limit reached while sliding at u_x = {slide:.4g} m")
@@ -238,7 +250,8 @@ class LoadPath:
                 continue
             last, slide = trial - slide, trial
             record = self._accept("tangential", report, slide)
-            if at_inception(record.slipping_nodes, record.contact_nodes):
+            last_force = record.tangential_force
+            if at_inception(slip_state(self.records), options.stuck_shear_tolerance):
                 return Outcome(True)
             if slide > options.max_slide * scale:
                 return Outcome(False, f"no sliding inception up to u_x = {slide:.4g} m "
@@ -257,10 +270,18 @@ class LoadPath:
             self._reject(report, step.friction)
         return report
 
-    def _slips(self, contact: ContactResponse) -> bool:
-        """Sliding inception (:func:`at_inception`) in the contact state ``contact``."""
-        maps = self.equilibrium.flat.node_maps(contact)
-        return at_inception(np.count_nonzero(maps["slip"]), np.count_nonzero(maps["contact"]))
+    def _slips(self, contact: ContactResponse, last_force: float | None) -> bool:
+        """Sliding inception (:func:`at_inception`) in the contact state ``contact``, after a
+        sliding step that carried ``last_force`` [N] (None: none yet)."""
+        flat = self.equilibrium.flat
+        maps = flat.node_maps(contact)
+        force = flat.tangential_force(contact)
+        change = (abs(force - last_force) / force if last_force is not None and force > 0.0
+                  else float("inf"))
+        state = SlipState(int(np.count_nonzero(maps["slip"])),
+                          int(np.count_nonzero(maps["contact"])),
+                          stuck_shear_share(flat, contact), change)
+        return at_inception(state, self.case.solver.stuck_shear_tolerance)
 
     def _tighten(self, report: NewtonReport, normal_force: float, slide: float
                  ) -> NewtonReport:
@@ -310,6 +331,8 @@ class LoadPath:
             wall_s=time.perf_counter() - self._started,
             cuts=self.attempts - 1 - sum(record.cuts + 1 for record in self.records),
             cut_iterations=self.failed_iterations,
+            stuck_shear_share=(stuck_shear_share(flat, report.contact) if phase == "tangential"
+                               else float("nan")),
         )
         self.failed_iterations = 0
         self.records.append(record)

@@ -54,7 +54,7 @@ from roughfriction.case import FemCase, Loading
 from roughfriction.errors import InputError
 from roughfriction.geometry.surface import Surface
 from roughfriction.material import Material
-from roughfriction.solver.results import RELIABLE_CELLS_PER_PATCH
+from roughfriction.solver.results import RELIABLE_CELLS_PER_PATCH, SlipState, at_inception
 from roughfriction.studies.batch import (
     BatchResult,
     cached_batch,
@@ -259,7 +259,7 @@ def run_facts(run) -> dict:
     -------
     dict
         :func:`studies.batch.summary_columns`, plus ``normal_only``, ``inception`` (the last
-        sliding step has every contact node slipping, > 0 of them; None without a sliding
+        sliding step is at inception, ``solver.results.at_inception``; None without a sliding
         step) and ``force_error`` (F_n of the last step over its target - 1 [-]; None without
         steps).
     """
@@ -270,11 +270,22 @@ def run_facts(run) -> dict:
     sliding = [k for k, phase in enumerate(steps["phase"]) if phase == "tangential"]
     last = sliding[-1] if sliding else None
     facts["normal_only"] = bool(run.inputs["loading"]["normal_only"])
-    facts["inception"] = (None if last is None else
-                          bool(steps["slipping_nodes"][last] == steps["contact_nodes"][last] > 0))
+    facts["inception"] = None if last is None else at_inception(
+        recorded_slip_state(steps, sliding), run.inputs["solver"]["stuck_shear_tolerance"])
     facts["force_error"] = (float(steps["normal_force"][-1] / target_normal_force(run) - 1.0)
                             if len(steps["phase"]) else None)
     return facts
+
+
+def recorded_slip_state(steps: dict, sliding: list[int]) -> SlipState:
+    """The :class:`~roughfriction.solver.results.SlipState` of the last of the ``sliding``
+    steps (indices into the results file's ``steps`` columns)."""
+    last = sliding[-1]
+    force = float(steps["tangential_force"][last])
+    change = (abs(force - float(steps["tangential_force"][sliding[-2]])) / force
+              if len(sliding) > 1 and force > 0.0 else float("inf"))
+    return SlipState(int(steps["slipping_nodes"][last]), int(steps["contact_nodes"][last]),
+                     float(steps["stuck_shear_share"][last]), change)
 
 
 def silent_failure_problems(facts: dict) -> list[str]:

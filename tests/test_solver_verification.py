@@ -23,6 +23,7 @@ from roughfriction.geometry.surface import (
 )
 from roughfriction.material import Material  # noqa: E402
 from roughfriction.solver import stepping  # noqa: E402
+from roughfriction.solver.results import at_inception, slip_state  # noqa: E402
 from roughfriction.solver.run import run, run_loads  # noqa: E402
 
 pytestmark = pytest.mark.fem
@@ -238,10 +239,12 @@ def g5_16_alone(load: float, friction_ramp: float):
 
 
 def assert_at_inception(result, min_contact_nodes: int) -> None:
-    """Converged, with every one of more than ``min_contact_nodes`` contact nodes slipping."""
+    """Converged at inception (``solver.results.at_inception``) with more than
+    ``min_contact_nodes`` contact nodes."""
     assert result.converged, result.message
     last = result.records[-1]
-    assert last.slipping_nodes == last.contact_nodes > min_contact_nodes
+    assert last.contact_nodes > min_contact_nodes
+    assert at_inception(slip_state(result.records), SolverOptions().stuck_shear_tolerance)
 
 
 def test_the_ramp_pressure_leaves_mu_s_unchanged_up_to_twice_the_default():

@@ -119,6 +119,8 @@ class ScriptedEquilibrium:
             area_ratio=lambda flags: float(np.mean(flags)),
             normal_force=lambda contact: contact.fn,
             tangential_force=lambda contact: 0.5 * contact.fn if contact.slide else 0.0,
+            stuck_shear_reserve=lambda contact: float(np.count_nonzero(
+                contact.in_contact & ~contact.slipping)),
             count=lambda flags: int(np.count_nonzero(flags)))
 
     def solve(self, step):
