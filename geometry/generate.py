@@ -125,7 +125,7 @@ PAPER_SPACING = 1e-6  # grid spacing [m]: 128 points over the 127 um scan
 
 @dataclass(frozen=True)
 class BuiltinSurface:
-    """Recipe of a built-in surface on the paper's 128 x 128 grid at 1 um spacing.
+    """Recipe of a built-in surface at 1 um spacing (the paper's 128 x 128 grid unless said).
 
     Attributes
     ----------
@@ -139,6 +139,8 @@ class BuiltinSurface:
         Where the numbers come from.
     hurst : float, optional
         Hurst exponent [-] (self-affine only).
+    points : int, optional
+        Points per side [-].
     """
 
     kind: str
@@ -146,6 +148,7 @@ class BuiltinSurface:
     seed: int
     description: str
     hurst: float | None = None
+    points: int = PAPER_POINTS
 
 
 _GAUSSIAN_NOTE = (
@@ -204,6 +207,10 @@ BUILTIN_SURFACES: dict[str, BuiltinSurface] = {
     "2L": _stand_in("2L (lapped)", 0.204e-6, 2, "as measured in the paper"),
     "8L": _stand_in("8L (lapped)", 0.254e-6, 8, "from the label 8 uin Ra x 1.25"),
     "63M": _stand_in("63M (milled)", 2.0e-6, 63, "from the label 63 uin Ra x 1.25"),
+    # G5's statistics on 16 times the area: the large-surface benchmark (bench fem).
+    "G5-512": BuiltinSurface("gaussian", 0.1e-6, 1, "G5's statistics (Table 1, sigma = 0.1 um, "
+                             "MATLAB normrnd) on 512 x 512 points at 1 um: 16 times G5's area, "
+                             "for the large-surface benchmark", points=512),
 }
 
 
@@ -213,7 +220,8 @@ def builtin_names() -> list[str]:
 
 
 def builtin_surface(name: str) -> Surface:
-    """Generate a built-in surface (128 x 128 heights [m] at 1 um spacing).
+    """Generate a built-in surface (heights [m] at 1 um spacing, 128 x 128 unless its recipe
+    says otherwise).
 
     Parameters
     ----------
@@ -228,7 +236,7 @@ def builtin_surface(name: str) -> Surface:
         raise InputError(f"unknown built-in surface {name!r}; known: {', '.join(builtin_names())}")
     recipe = BUILTIN_SURFACES[name]
     if recipe.kind == "gaussian":
-        return gaussian_surface(recipe.rms, PAPER_POINTS, PAPER_SPACING, recipe.seed, name)
+        return gaussian_surface(recipe.rms, recipe.points, PAPER_SPACING, recipe.seed, name)
     return self_affine_surface(
-        recipe.rms, recipe.hurst, PAPER_POINTS, PAPER_SPACING, recipe.seed, name=name
+        recipe.rms, recipe.hurst, recipe.points, PAPER_SPACING, recipe.seed, name=name
     )

@@ -38,6 +38,8 @@ from roughfriction.errors import ConvergenceError, InputError
 from roughfriction.files import atomic_write
 from roughfriction.studies.batch import BENCH_DIR
 
+#: Hex digits of the physics version stamped on a row (``studies.physics.physics_version``).
+PHYSICS_STAMP = 12
 #: (surface, F*) of the headline rows.
 HEADLINE_CASES = (("G5", 0.155), ("G5", 0.93), ("2L", 0.5), ("G1", 1.86))
 DEFAULT_SIZES = (32, 64, 128)
@@ -47,8 +49,8 @@ PATH_COLUMNS = ("surface", "load_star", "n", "ranks", "path_factor", "mu_s", "mu
                 "path_error", "newton_iterations", "fine_newton_iterations", "wall_s",
                 "fine_wall_s", "converged")
 COLUMNS = ("surface", "load_star", "n", "ranks", "cells", "reduced_dofs", "linear_solver",
-           "wall_s", "peak_memory_gb", "steps", "newton_iterations", "cut_steps", "cut_iterations",
-           "mu_s", "converged")
+           "wall_s", "peak_memory_gb", "estimated_memory_gb", "steps", "newton_iterations",
+           "cut_steps", "cut_iterations", "inception_slide_m", "mu_s", "converged", "physics")
 
 
 #: Prefixes of the variables an MPI launcher sets in its processes.
@@ -90,7 +92,11 @@ def case_stem(surface: str, load: float, n: int, ranks: int, window: int | None 
 def run_size(surface: str, load: float, n: int, ranks: int, config: Path | None = None,
              label: str = "fem") -> dict:
     """Run one case and grid size through ``roughfriction fem`` under mpirun (with the case
-    file ``config``); return its row. Its record goes to ``<label>_<case_stem>.h5``."""
+    file ``config``); return its row, with the memory estimate that gates the run
+    (``solver.memory``) beside its measured peak. Its record goes to
+    ``<label>_<case_stem>.h5``."""
+    from roughfriction.solver.memory import memory_gb
+
     output = BENCH_DIR / f"{label}_{case_stem(surface, load, n, ranks)}.h5"
     command = ["mpirun", "-n", str(ranks), "--oversubscribe", sys.executable, "-m",
                "roughfriction.scripts.cli", "fem", surface, "--load", str(load), "--n", str(n),
@@ -103,12 +109,17 @@ def run_size(surface: str, load: float, n: int, ranks: int, config: Path | None 
         raise RuntimeError(f"{surface} at F* = {load:g}, N = {n}: run failed (exit "
                            f"{status}) without results")
     summary, sizes, _ = read_record(output)
+    with h5py.File(output) as h5:
+        slides, physics = h5["steps/slide"][()], str(h5.attrs["physics"])
     row = {"surface": surface, "load_star": load, "n": n, "ranks": ranks}
     row.update({key: sizes.get(key) for key in ("cells", "reduced_dofs", "linear_solver",
                                                 "peak_memory_gb")})
+    row["estimated_memory_gb"] = memory_gb(n, sizes["reduced_dofs"], ranks)
     row.update({key: summary[key] for key in ("wall_s", "steps", "newton_iterations",
                                               "cut_steps", "cut_iterations", "mu_s",
                                               "converged")})
+    row["inception_slide_m"] = float(slides[-1]) if summary["mu_s"] is not None else None
+    row["physics"] = physics[:PHYSICS_STAMP]
     return row
 
 

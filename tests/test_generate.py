@@ -124,8 +124,14 @@ def test_self_affine_argument_errors(kwargs, message):
 
 
 def test_builtin_names_in_table_order():
-    assert builtin_names() == [f"G{k}" for k in range(1, 10)] + ["2L", "8L", "63M"]
+    assert builtin_names() == [f"G{k}" for k in range(1, 10)] + ["2L", "8L", "63M", "G5-512"]
     assert list(BUILTIN_SURFACES) == builtin_names()
+
+
+def test_the_large_benchmark_surface_has_g5s_statistics_on_512_points():
+    large, g5 = builtin_surface("G5-512"), builtin_surface("G5")
+    assert large.n == 512 and large.spacing == g5.spacing
+    assert large.heights.std() == pytest.approx(g5.heights.std(), rel=0.02)
 
 
 @pytest.mark.parametrize("name", ["G1", "G5", "G9", "2L", "8L", "63M"])
