@@ -232,13 +232,36 @@ def cmd_figure(args) -> dict:
 
 
 def cmd_runs(args) -> dict:
-    from roughfriction.case import FemCase, Loading
-    from roughfriction.geometry.surface import surface_on_fem_grid
-    from roughfriction.studies.cache import cached_results
+    from dataclasses import replace
 
-    surface = surface_on_fem_grid(surface_from_args(args), args.n)
-    cases = [FemCase(surface, Loading(load, args.normal_only)) for load in args.load]
-    return {"runs": [str(path) for path in cached_results(cases, directory=args.directory)]}
+    from mpi4py import MPI
+    from roughfriction.case import Loading
+    from roughfriction.files import agreed
+    from roughfriction.plausibility import material_record
+    from roughfriction.scripts.fem import case_from_args, unresolved_warning
+    from roughfriction.studies.cache import cached_results
+    from roughfriction.studies.results_file import stored_run
+
+    comm = MPI.COMM_WORLD
+    loads, args.load = args.load, args.load[0]  # one case, built as fem builds it, per load
+    case = case_from_args(args, agreed(comm, lambda: surface_from_args(args)), comm)
+    cases = [replace(case, loading=Loading(load, case.loading.normal_only)) for load in loads]
+    paths = cached_results(cases, directory=args.directory)
+    summaries = [stored_run(path).summary for path in paths]
+    unreliable = [f"{one.loading.load_star:g}" for one, summary in zip(cases, summaries,
+                                                                      strict=True)
+                  if unresolved_warning(summary)]
+    if unreliable and is_root_rank():
+        warning = unresolved_warning(next(s for s in summaries if unresolved_warning(s)))
+        print(f"warning: at F* = {', '.join(unreliable)}: {warning}", file=sys.stderr)
+    return {"runs": {"F*": [one.loading.load_star for one in cases],
+                     "N": [one.surface.n for one in cases],
+                     "mu_s": [summary.get("mu_s") for summary in summaries],
+                     "A_r/A_n": [summary.get("area_ratio_normal") for summary in summaries],
+                     "reliable": [summary.get("reliable") for summary in summaries],
+                     "converged": [summary.get("converged") for summary in summaries],
+                     "file": [str(path) for path in paths]},
+            "material": material_record(case.material)}
 
 
 def describe_commands(parser: argparse.ArgumentParser) -> None:
@@ -349,13 +372,20 @@ def build_parser() -> argparse.ArgumentParser:
                       help="one or more dimensionless normal loads F* = F_n / (A_n S_y)")
     runs.add_argument("--n", type=int, metavar="N",
                       help="surface cells per side of the FEM grid (default: the surface's "
-                      "points per side; fewer re-grid it over its scan length)")
-    runs.add_argument("--normal-only", action="store_true",
+                      "points per side; fewer re-grid it over its scan length, unless "
+                      "--window)")
+    runs.add_argument("--window", metavar="K",
+                      help="with --n below the surface's points: mesh its K-th N x N window "
+                      "at its own spacing (1, 2, ... or 'best'), as fem --window")
+    runs.add_argument("--config", metavar="TOML",
+                      help="case file, as fem --config (its load and n stand in for missing "
+                      "flags)")
+    runs.add_argument("--normal-only", action="store_true", default=None,
                       help="preload only (no sliding, no mu_s)")
     runs.add_argument("--directory", metavar="DIR",
                       help=f"the run cache (default ${RUNS_VARIABLE}, else {DEFAULT_RUNS})")
     runs.add_argument("--json", action="store_true", help="one JSON object on stdout")
-    runs.set_defaults(run=cmd_runs)
+    runs.set_defaults(run=cmd_runs, elastic=None)
 
     from roughfriction.scripts.bench import add_bench_commands
 

@@ -438,7 +438,7 @@ def test_a_killed_run_leaves_no_entry_and_a_rerun_completes(tmp_path):
     assert done.returncode == 0, done.stderr
     case = FemCase(surface_on_fem_grid(builtin_surface("G5"), 8), Loading(0.155))
     path = entry_path(tmp_path, case, PHYSICS)
-    assert json.loads(done.stdout)["runs"] == [str(path)]
+    assert json.loads(done.stdout)["runs"]["file"] == [str(path)]
     entry = read_run(path)
     assert entry.converged and entry.summary["mu_s"] > 0
     assert entry.maps["surface_heights"].shape == (8, 8)

@@ -318,3 +318,27 @@ def test_a_reader_that_leaves_early_gets_no_traceback():
     err = process.stderr.read()
     assert process.wait(60) == EXIT_BROKEN_PIPE == 141
     assert err == ""
+
+
+@pytest.mark.fem
+def test_runs_builds_its_cases_as_fem_does_and_says_what_fem_says(tmp_path, capsys):
+    """runs re-grids with the same note, takes --window and --config, and reports per load
+    mu_s beside its reliability, with the material, in a table with a header."""
+    config = tmp_path / "case.toml"
+    config.write_text('[material]\nSy = "800MPa"\n')
+    common = ["runs", "G5", "--load", "0.155", "0.5", "--n", "8", "--directory",
+              str(tmp_path / "runs")]
+    assert main([*common, "--json"]) == 0
+    captured = capsys.readouterr()
+    assert "note: G5 re-gridded from 128 to 8 points per side" in captured.err
+    table = json.loads(captured.out)["runs"]
+    assert table["F*"] == [0.155, 0.5] and table["N"] == [8, 8]
+    assert all(isinstance(flag, bool) for flag in table["reliable"])
+    assert main([*common, "--window", "1", "--config", str(config)]) == 0
+    captured = capsys.readouterr()
+    assert "re-gridded" not in captured.err
+    lines = captured.out.splitlines()
+    assert lines[2].split() == ["F*", "N", "mu_s", "A_r/A_n", "reliable", "converged", "file"]
+    assert "Sy     8e+08" in captured.out
+    assert "False" in captured.out  # patches of a cell or two on 8 x 8: not resolved
+    assert "warning: at F* = 0.155, 0.5: " in captured.err and "--tol 0.03" in captured.err
