@@ -24,7 +24,7 @@ from pathlib import Path
 from roughfriction import __version__
 from roughfriction.errors import ConvergenceError, InputError
 from roughfriction.material import Material
-from roughfriction.scripts.surface_args import positive_float, surface_from_args
+from roughfriction.scripts.surface_args import positive_float, surface_cells, surface_from_args
 
 EXIT_INPUT_ERROR = 2
 #: Exit status of a FEM run that did not converge.
@@ -356,7 +356,7 @@ def build_parser() -> argparse.ArgumentParser:
                         help="a figure (fig3 ... fig29, written to figures/figNN.png and .csv), "
                         "'all', 'runs' (compute every FEM figure's runs) or 'claims' (the "
                         "paper's statements checked against figures/*.csv)")
-    figure.add_argument("--n", type=int, metavar="N",
+    figure.add_argument("--n", type=surface_cells, metavar="N",
                         help=f"FEM figures: surface cells per side of the runs (default "
                         f"${FEM_N_VARIABLE}, else {DEFAULT_FEM_N}); runs are kept in the run "
                         f"cache (${RUNS_VARIABLE}, else {DEFAULT_RUNS})")
@@ -370,7 +370,7 @@ def build_parser() -> argparse.ArgumentParser:
     add_surface_arguments(runs)
     runs.add_argument("--load", type=positive_float, nargs="+", required=True, metavar="FSTAR",
                       help="one or more dimensionless normal loads F* = F_n / (A_n S_y)")
-    runs.add_argument("--n", type=int, metavar="N",
+    runs.add_argument("--n", type=surface_cells, metavar="N",
                       help="surface cells per side of the FEM grid (default: the surface's "
                       "points per side; fewer re-grid it over its scan length, unless "
                       "--window)")

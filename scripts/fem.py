@@ -70,7 +70,9 @@ def add_fem_arguments(parser: argparse.ArgumentParser) -> None:
     """The FEM options (the surface argument and reader options are added by the caller)."""
     parser.add_argument("--load", type=float, metavar="FSTAR",
                         help="dimensionless normal load F* = F_n / (A_n S_y)")
-    parser.add_argument("--n", type=int, metavar="N",
+    from roughfriction.scripts.surface_args import surface_cells
+
+    parser.add_argument("--n", type=surface_cells, metavar="N",
                         help="surface cells per side of the FEM grid (default: the surface's "
                         "points per side)")
     parser.add_argument("--window", metavar="K",

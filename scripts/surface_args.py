@@ -56,3 +56,21 @@ def positive_float(text: str) -> float:
     if not (math.isfinite(value) and value > 0):
         raise argparse.ArgumentTypeError(f"must be a finite number > 0, got {text}")
     return value
+
+
+#: Fewest surface cells per side of an FEM grid (``geometry.surface.validate_grid_points``).
+MIN_CELLS = 4
+
+
+def surface_cells(text: str) -> int:
+    """argparse type of ``--n``: surface cells per side of the FEM grid, an integer >= 4 (on
+    the periodic grid, N cells per side on N points)."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"surface cells per side must be an integer, got "
+                                         f"{text!r}") from None
+    if value < MIN_CELLS:
+        raise argparse.ArgumentTypeError(f"surface cells per side must be >= {MIN_CELLS}, got "
+                                         f"{value}")
+    return value

@@ -342,3 +342,12 @@ def test_runs_builds_its_cases_as_fem_does_and_says_what_fem_says(tmp_path, caps
     assert "Sy     8e+08" in captured.out
     assert "False" in captured.out  # patches of a cell or two on 8 x 8: not resolved
     assert "warning: at F* = 0.155, 0.5: " in captured.err and "--tol 0.03" in captured.err
+
+
+@pytest.mark.parametrize("command", [["fem", "G5", "--load", "0.155"],
+                                     ["runs", "G5", "--load", "0.155"], ["figure", "fig22"]])
+def test_n_is_counted_in_surface_cells(command, capsys):
+    assert main([*command, "--n", "1"]) == EXIT_INPUT_ERROR
+    assert one_line(capsys.readouterr().err).endswith(
+        "argument --n: surface cells per side must be >= 4, got 1 (see roughfriction "
+        f"{command[0]} --help)")
