@@ -347,7 +347,9 @@ def test_runs_builds_its_cases_as_fem_does_and_says_what_fem_says(tmp_path, caps
 @pytest.mark.parametrize("command", [["fem", "G5", "--load", "0.155"],
                                      ["runs", "G5", "--load", "0.155"], ["figure", "fig22"]])
 def test_n_is_counted_in_surface_cells(command, capsys):
-    assert main([*command, "--n", "1"]) == EXIT_INPUT_ERROR
+    with pytest.raises(SystemExit) as exit_info:
+        main([*command, "--n", "1"])
+    assert exit_info.value.code == EXIT_INPUT_ERROR
     assert one_line(capsys.readouterr().err).endswith(
         "argument --n: surface cells per side must be >= 4, got 1 (see roughfriction "
         f"{command[0]} --help)")
