@@ -61,6 +61,12 @@ def _text(value) -> str:
     return f"{value:.6g}" if isinstance(value, float) else str(value)
 
 
+#: Units of the quantities the commands print (text tables; JSON is SI without them).
+UNITS = {"spacing": "m", "rq": "m", "m0": "m^2", "m4": "m^-2", "sigma_s": "m",
+         "R": "m", "Ft_max": "N", "Fn": "N", "E": "Pa", "Sy": "Pa", "Et": "Pa", "tau_c": "Pa",
+         "wall_s": "s", "mu_s_error": "(absolute)", "mu_s_error_relative": "(relative)"}
+
+
 def _section_lines(section: dict) -> list[str]:
     """A nested record as text: equal-length lists as a table with a header row; anything else
     as aligned ``key  value`` lines (a dict value as ``k=v`` pairs)."""
@@ -74,8 +80,14 @@ def _section_lines(section: dict) -> list[str]:
                 for row in rows]
     width = max(len(key) for key in section)
     return [f"{key:<{width}}  " + (" ".join(f"{k}={_text(v)}" for k, v in value.items())
-                                   if isinstance(value, dict) else _text(value))
+                                   if isinstance(value, dict) else _with_unit(key, value))
             for key, value in section.items()]
+
+
+def _with_unit(key: str, value) -> str:
+    """``value`` as text, followed by the unit of ``key`` (:data:`UNITS`) when it has one."""
+    unit = UNITS.get(key) if value is not None else None
+    return f"{_text(value)} {unit}" if unit else _text(value)
 
 
 def emit(record: dict, as_json: bool) -> None:

@@ -353,3 +353,11 @@ def test_n_is_counted_in_surface_cells(command, capsys):
     assert one_line(capsys.readouterr().err).endswith(
         "argument --n: surface cells per side must be >= 4, got 1 (see roughfriction "
         f"{command[0]} --help)")
+
+
+def test_text_tables_name_their_units(capsys):
+    assert main(["surface", "stats", "G5"]) == 0
+    lines = {line.split()[0]: line.split()[1:] for line in capsys.readouterr().out.splitlines()
+             if line.strip()}
+    assert lines["rq"][1] == "m" and lines["m4"][1] == "m^-2" and lines["spacing"][1] == "m"
+    assert len(lines["psi"]) == 1 and lines["Sy"][1] == "Pa"
