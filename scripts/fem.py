@@ -420,7 +420,7 @@ def run_fem(args) -> dict:
         write_block_msh(case.surface.heights, case.surface.spacing, meshed_case.mesh, args.msh,
                         comm)
     if limits is None:
-        outcome = run(case, comm, xdmf_directory=outputs.fields)
+        outcome = run(case, comm, counted_progress(case, comm), xdmf_directory=outputs.fields)
         summary = with_warnings({**outcome.result.summary(), **meshed}, case)
         _save(output, case, outcome, comm, {**meshed, "warnings": summary["warnings"]},
               outputs.request)
@@ -473,7 +473,8 @@ def run_levels(case: FemCase, outputs: FemOutputs, limits: LadderLimits, meshed:
     def run_level(level: int, level_case: FemCase) -> LevelRun:
         if comm.rank == 0:
             print(level_header(level, level_case, limits, done, comm.size), file=sys.stderr)
-        fem_run = run(level_case, comm, xdmf_directory=outputs.fields if level == 0 else None)
+        fem_run = run(level_case, comm, counted_progress(level_case, comm),
+                      xdmf_directory=outputs.fields if level == 0 else None)
         summary = fem_run.result.summary()
         finest.update(summary)
         done.append({"wall_s": summary["wall_s"], "cut_steps": summary["cut_steps"],
@@ -530,6 +531,14 @@ def ladder_report(ladder_summary: dict, done: list[dict]) -> dict:
     return {**ladder_summary, "levels": levels,
             "cut_steps_all_levels": sum(one["cut_steps"] for one in done),
             "error_estimate": coverage_statement()}
+
+
+def counted_progress(case: FemCase, comm):
+    """The run's progress on stderr (rank 0), its steps numbered, the preload's share of F_n
+    and time left, the sliding's slipping nodes (``solver.progress.CountedProgress``)."""
+    from roughfriction.solver.progress import CountedProgress
+
+    return CountedProgress(comm, case.normal_force)
 
 
 def _save(output: Path, case: FemCase, fem_run, comm, extra: dict, request: str) -> None:

@@ -405,8 +405,8 @@ def test_progress_lines_name_the_run_and_the_ratio():
                        "wall_s": 12.0})
     assert lines[0] == ("[1/2] G-test N=8 F*=0.155: step 1 tangential Ft/Fn=0.2500 newton 4 "
                         "(4 in run)")
-    assert lines[1].endswith("tangential step cut (Newton 15 its, residual 1.00e-02 F_n): "
-                             "residual not finite")
+    assert lines[1].endswith("sliding step retried at a smaller size: residual not finite "
+                             "(Newton 15 its, residual 1.00e-02 F_n)")
     assert "mu_s=0.7500" in lines[2] and "1/2 runs" in lines[2] and "left" in lines[2]
     assert "|" + "#" * 10 + "." * 10 + "|" in lines[2]
 
