@@ -248,7 +248,7 @@ class SolverOptions:
     first_slide: float = 0.02
     max_slide_increment: float = 0.25
     max_slide: float = 20.0
-    stuck_shear_tolerance: float = 1e-3
+    stuck_shear_tolerance: float = 1e-4
     max_steps: int = 300
 
     def __post_init__(self):
