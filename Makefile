@@ -105,6 +105,10 @@ bench-multiscale: setup
 # adds serial rows). All of them at N = 128 take hours on 2 cores.
 BENCH_N ?= 32 64 128
 BENCH_CASES ?= G5:0.155 G5:0.93 2L:0.5 G1:1.86
+# Then the large surface G5-512 (G5's statistics on 512 x 512 points) at N = $(LARGE_N), the
+# rows that check the memory estimate and the sliding inception as surfaces grow (~30 min).
+LARGE_N ?= 256 512
+LARGE_CASES ?= G5-512:0.155
 # Then the levels of the error ladder (`roughfriction fem --tol`), adaptive and uniform, of
 # $(LADDER_CASES) on N = $(LADDER_N) up to level $(LADDER_LEVEL) (2x) -> results/bench/ladder.csv
 # (a row per level: dofs, wall time, mu_s; ~40 min on 2 cores).
@@ -113,6 +117,7 @@ LADDER_N ?= 128
 LADDER_LEVEL ?= 1
 bench-fem: setup
 	@$(VENV)/bin/roughfriction bench fem --n $(BENCH_N) --ranks $(NP) --case $(BENCH_CASES)
+	@$(VENV)/bin/roughfriction bench fem --n $(LARGE_N) --ranks $(NP) --case $(LARGE_CASES)
 	@$(VENV)/bin/roughfriction bench ladder --n $(LADDER_N) --ranks $(NP) --case $(LADDER_CASES) \
 	  --max-level $(LADDER_LEVEL)
 	@mkdir -p docs/bench && cp results/bench/fem.csv results/bench/ladder.csv docs/bench/
