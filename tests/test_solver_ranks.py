@@ -15,22 +15,18 @@ dolfinx = pytest.importorskip("dolfinx")
 
 ROOT = Path(__file__).resolve().parent.parent
 
-# A 12 x 12 i.i.d. surface (rms 0.1 um at 1 um spacing) at F* = 0.3, with the default solver
-# options ("auto": direct below their size limit) or GAMG, on 4 full-resolution layers: with
-# the default 2 its second preload step converges in exactly the iteration limit on 1 rank and
-# is cut on 2 and 4, a load path 3.2 % apart in mu_s (round-off deciding a marginal step,
-# docs/benchmarks.md).
+# A 12 x 12 i.i.d. surface (rms 0.1 um at 1 um spacing) at F* = 0.3 on the default mesh, with
+# the default solver options ("auto": direct below their size limit) or GAMG.
 RUN = """
 import json
 import numpy as np
 from mpi4py import MPI
-from roughfriction.case import FemCase, Loading, MeshOptions, SolverOptions
+from roughfriction.case import FemCase, Loading, SolverOptions
 from roughfriction.geometry.surface import Surface
 from roughfriction.solver.run import run
 
 heights = np.random.default_rng(11).normal(0.0, 0.1e-6, (12, 12))
 result = run(FemCase(Surface(heights, 1e-6, "ranks"), Loading(0.3),
-                     mesh=MeshOptions(blend_layers=4, fine_layers=4),
                      solver=SolverOptions(linear_solver="{method}")), MPI.COMM_WORLD,
              progress=lambda record: None).result
 if MPI.COMM_WORLD.rank == 0:
