@@ -223,9 +223,9 @@ class SolverOptions:
         Give up (unconverged) if sliding has not started after this multiple of tau_c H / G [-].
     stuck_shear_tolerance : float
         Sliding inception: every contact node slips, or the shear the sticking contact could
-        still add (its c(p) - t_x over its area) is at most this fraction of F_t, so that nodes
-        that have just touched, stuck at a small pressure, do not hold the flat on its
-        plateau of F_t [-].
+        still add (its c(p) - t_x over its area) and F_t's change over the last two sliding
+        steps are both at most this fraction of F_t, so that nodes that have just touched,
+        stuck at a small pressure, do not hold the flat on its plateau of F_t [-].
     max_steps : int
         Upper bound on accepted plus cut steps [-].
     """
@@ -248,7 +248,7 @@ class SolverOptions:
     first_slide: float = 0.02
     max_slide_increment: float = 0.25
     max_slide: float = 20.0
-    stuck_shear_tolerance: float = 1e-4
+    stuck_shear_tolerance: float = 1e-3
     max_steps: int = 300
 
     def __post_init__(self):

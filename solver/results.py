@@ -91,7 +91,8 @@ class SlipState:
     stuck_shear_share : float
         The shear the sticking contact could still add, over F_t [-].
     force_change : float
-        |F_t - F_t of the sliding step before| / F_t [-] (inf at the first sliding step).
+        F_t's largest change over the last :data:`PLATEAU_STEPS` sliding steps, over F_t
+        (:func:`plateau_change`) [-].
     """
 
     slipping_nodes: int
@@ -100,12 +101,25 @@ class SlipState:
     force_change: float
 
 
+#: Sliding steps over which F_t must stay within the inception tolerance to be on its plateau.
+PLATEAU_STEPS = 2
+
+
+def plateau_change(forces) -> float:
+    """The largest |F_t - F_t'| / F_t between the last of the sliding steps' ``forces`` [N] and
+    the :data:`PLATEAU_STEPS` before it [-]; inf with fewer steps or without F_t > 0."""
+    forces = list(forces)
+    if len(forces) <= PLATEAU_STEPS or forces[-1] <= 0.0:
+        return float("inf")
+    return max(abs(forces[-1] - before) for before in forces[-1 - PLATEAU_STEPS:-1]) / forces[-1]
+
+
 def at_inception(state: SlipState, tolerance: float) -> bool:
     """Sliding inception (the paper's "all contact elements slide"): some node touches, and
     every contact node slips, or F_t is on its plateau with the sticking nodes unable to
-    raise it: the shear they could still add and F_t's change over the last step are both at
-    most ``tolerance`` of F_t (a node that has just touched, stuck at a small pressure, does
-    not hold the flat) [-]."""
+    raise it: the shear they could still add and F_t's change over the last
+    :data:`PLATEAU_STEPS` steps are both at most ``tolerance`` of F_t (a node that has just
+    touched, stuck at a small pressure, does not hold the flat) [-]."""
     if state.contact_nodes == 0:
         return False
     return state.slipping_nodes == state.contact_nodes or (
@@ -114,12 +128,11 @@ def at_inception(state: SlipState, tolerance: float) -> bool:
 
 def slip_state(records) -> SlipState:
     """The :class:`SlipState` of the last of ``records`` (:class:`StepRecord`, the last a
-    sliding step), its force change against the sliding step before it."""
+    sliding step)."""
     last = records[-1]
-    before = [record for record in records[:-1] if record.phase == "tangential"]
-    change = (abs(last.tangential_force - before[-1].tangential_force) / last.tangential_force
-              if before and last.tangential_force > 0.0 else float("inf"))
-    return SlipState(last.slipping_nodes, last.contact_nodes, last.stuck_shear_share, change)
+    forces = [record.tangential_force for record in records if record.phase == "tangential"]
+    return SlipState(last.slipping_nodes, last.contact_nodes, last.stuck_shear_share,
+                     plateau_change(forces))
 
 
 def touched_nodes(maps: dict) -> np.ndarray:

@@ -24,6 +24,7 @@ from roughfriction.solver.results import (
     StepRecord,
     at_inception,
     count_patches,
+    plateau_change,
     slip_state,
 )
 
@@ -231,7 +232,7 @@ class LoadPath:
         size = StepSize(options.first_slide * scale, options.max_slide_increment * scale)
         slide = 0.0
         last = None  # increment of the last accepted sliding step [m]
-        last_force = None  # its F_t [N]
+        forces = []  # F_t of the accepted sliding steps [N]
         while True:
             trial = slide + size.value
             if last is not None:
@@ -239,7 +240,7 @@ class LoadPath:
             report = self._attempt(LoadStep(target, trial, friction=True,
                                             predictor=last is None, marks_path=True))
             if (report is not None and report.converged
-                    and self._slips(report.contact, last_force)):
+                    and self._slips(report.contact, forces)):
                 report = self._tighten(report, target, trial)
             if report is None:
                 return Outcome(False, f"step limit reached while sliding at u_x = {slide:.4g} m")
@@ -250,7 +251,7 @@ class LoadPath:
                 continue
             last, slide = trial - slide, trial
             record = self._accept("tangential", report, slide)
-            last_force = record.tangential_force
+            forces.append(record.tangential_force)
             if at_inception(slip_state(self.records), options.stuck_shear_tolerance):
                 return Outcome(True)
             if slide > options.max_slide * scale:
@@ -270,17 +271,15 @@ class LoadPath:
             self._reject(report, step.friction)
         return report
 
-    def _slips(self, contact: ContactResponse, last_force: float | None) -> bool:
-        """Sliding inception (:func:`at_inception`) in the contact state ``contact``, after a
-        sliding step that carried ``last_force`` [N] (None: none yet)."""
+    def _slips(self, contact: ContactResponse, forces: list[float]) -> bool:
+        """Sliding inception (:func:`at_inception`) in the contact state ``contact``, after
+        sliding steps that carried ``forces`` [N]."""
         flat = self.equilibrium.flat
         maps = flat.node_maps(contact)
-        force = flat.tangential_force(contact)
-        change = (abs(force - last_force) / force if last_force is not None and force > 0.0
-                  else float("inf"))
         state = SlipState(int(np.count_nonzero(maps["slip"])),
                           int(np.count_nonzero(maps["contact"])),
-                          stuck_shear_share(flat, contact), change)
+                          stuck_shear_share(flat, contact),
+                          plateau_change([*forces, flat.tangential_force(contact)]))
         return at_inception(state, self.case.solver.stuck_shear_tolerance)
 
     def _tighten(self, report: NewtonReport, normal_force: float, slide: float

@@ -54,7 +54,12 @@ from roughfriction.case import FemCase, Loading
 from roughfriction.errors import InputError
 from roughfriction.geometry.surface import Surface
 from roughfriction.material import Material
-from roughfriction.solver.results import RELIABLE_CELLS_PER_PATCH, SlipState, at_inception
+from roughfriction.solver.results import (
+    RELIABLE_CELLS_PER_PATCH,
+    SlipState,
+    at_inception,
+    plateau_change,
+)
 from roughfriction.studies.batch import (
     BatchResult,
     cached_batch,
@@ -281,11 +286,9 @@ def recorded_slip_state(steps: dict, sliding: list[int]) -> SlipState:
     """The :class:`~roughfriction.solver.results.SlipState` of the last of the ``sliding``
     steps (indices into the results file's ``steps`` columns)."""
     last = sliding[-1]
-    force = float(steps["tangential_force"][last])
-    change = (abs(force - float(steps["tangential_force"][sliding[-2]])) / force
-              if len(sliding) > 1 and force > 0.0 else float("inf"))
+    forces = [float(steps["tangential_force"][k]) for k in sliding]
     return SlipState(int(steps["slipping_nodes"][last]), int(steps["contact_nodes"][last]),
-                     float(steps["stuck_shear_share"][last]), change)
+                     float(steps["stuck_shear_share"][last]), plateau_change(forces))
 
 
 def silent_failure_problems(facts: dict) -> list[str]:

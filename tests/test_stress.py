@@ -177,7 +177,7 @@ def test_load_path_records_the_cuts_before_each_step_also_across_a_branch():
     cuts = [event for event in events if isinstance(event, StepCut)]
     assert [(cut.phase, cut.reason) for cut in cuts] == [
         ("normal", "scripted failure 2"), ("normal", "scripted failure 3")]
-    assert str(cuts[0]).endswith("residual 1.00e-03 F_n): scripted failure 2")
+    assert str(cuts[0]).endswith("scripted failure 2 (Newton 3 its, residual 1.00e-03 F_n)")
     assert [type(event) for event in events].count(StepRecord) == len(path.records)
     assert [r.cuts for r in path.records] == [0, 2, 0, 0, 0, 0, 0]
     # every scripted attempt takes 3 Newton iterations: a step carries those of its failed ones
