@@ -22,7 +22,7 @@ from roughfriction.solver.linear import node_memory_available_gb
 #: to 512 on 2 ranks).
 MEMORY_PER_RANK_GB = 0.2
 CONTACT_MEMORY_PER_NODE_GB = 6.5e-6
-MEMORY_PER_DOF_GB = 4.8e-6
+MEMORY_PER_DOF_GB = 4.6e-6
 #: Grid rows beyond its own slab whose faces a rank evaluates (two rings on either side) [-].
 CONTACT_HALO_ROWS = 8
 

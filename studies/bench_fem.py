@@ -49,7 +49,7 @@ PATH_COLUMNS = ("surface", "load_star", "n", "ranks", "path_factor", "mu_s", "mu
                 "path_error", "newton_iterations", "fine_newton_iterations", "wall_s",
                 "fine_wall_s", "converged")
 COLUMNS = ("surface", "load_star", "n", "ranks", "cells", "reduced_dofs", "linear_solver",
-           "wall_s", "peak_memory_gb", "estimated_memory_gb", "steps", "newton_iterations",
+           "wall_s", "peak_memory_gb", "steps", "newton_iterations",
            "cut_steps", "cut_iterations", "inception_slide_m", "mu_s", "converged", "physics")
 
 
@@ -92,11 +92,7 @@ def case_stem(surface: str, load: float, n: int, ranks: int, window: int | None 
 def run_size(surface: str, load: float, n: int, ranks: int, config: Path | None = None,
              label: str = "fem") -> dict:
     """Run one case and grid size through ``roughfriction fem`` under mpirun (with the case
-    file ``config``); return its row, with the memory estimate that gates the run
-    (``solver.memory``) beside its measured peak. Its record goes to
-    ``<label>_<case_stem>.h5``."""
-    from roughfriction.solver.memory import memory_gb
-
+    file ``config``); return its row. Its record goes to ``<label>_<case_stem>.h5``."""
     output = BENCH_DIR / f"{label}_{case_stem(surface, load, n, ranks)}.h5"
     command = ["mpirun", "-n", str(ranks), "--oversubscribe", sys.executable, "-m",
                "roughfriction.scripts.cli", "fem", surface, "--load", str(load), "--n", str(n),
@@ -114,7 +110,6 @@ def run_size(surface: str, load: float, n: int, ranks: int, config: Path | None 
     row = {"surface": surface, "load_star": load, "n": n, "ranks": ranks}
     row.update({key: sizes.get(key) for key in ("cells", "reduced_dofs", "linear_solver",
                                                 "peak_memory_gb")})
-    row["estimated_memory_gb"] = memory_gb(n, sizes["reduced_dofs"], ranks)
     row.update({key: summary[key] for key in ("wall_s", "steps", "newton_iterations",
                                               "cut_steps", "cut_iterations", "mu_s",
                                               "converged")})
@@ -230,9 +225,9 @@ def read_table(path: Path) -> list[dict]:
 
 
 def write_csv(rows: list[dict], path: Path, columns=COLUMNS) -> None:
-    """The benchmark table."""
+    """The benchmark table (of ``columns``; other keys of the rows are left out)."""
     with open(path, "w", newline="") as file:
-        writer = csv.DictWriter(file, fieldnames=columns)
+        writer = csv.DictWriter(file, fieldnames=columns, extrasaction="ignore")
         writer.writeheader()
         writer.writerows(rows)
 

@@ -70,20 +70,64 @@ def case_label(row: dict[str, str]) -> str:
     return f"{row['surface']}, F* = {float(row['load_star']):g}"
 
 
+#: The large surface of `make bench-fem` (its own table, timed against the 128² G5 row).
+LARGE_SURFACE = "G5-512"
+#: The row the large surface's wall times are given as a ratio to: (surface, F*, N).
+TIMING_REFERENCE = ("G5", 0.155, 128)
+
+
+def memory_text(row: dict[str, str]) -> str:
+    """A row's peak memory beside the estimate that gates such a run today
+    (``solver.memory.memory_gb`` of its N, reduced dofs and ranks) [GB]."""
+    from roughfriction.solver.memory import memory_gb
+
+    estimate = memory_gb(int(row["n"]), int(row["reduced_dofs"]), int(row["ranks"]))
+    return f"{float(row['peak_memory_gb']):.2f} GB (est. {estimate:.2f})"
+
+
 def fem_table(bench: Path, only_n: int | None = None) -> str:
     """`make bench-fem`: the headline cases at every N (or only at ``only_n``) on 2 ranks
-    (fem.csv)."""
+    (fem.csv), the peak memory beside its estimate."""
     rows = [row for row in read_rows(bench / "fem.csv")
-            if row["ranks"] == "2" and only_n in (None, int(row["n"]))]
+            if row["ranks"] == "2" and only_n in (None, int(row["n"]))
+            and row["surface"] != LARGE_SURFACE]
     rows.sort(key=lambda row: (row["surface"] != "G5", row["surface"], float(row["load_star"]),
                                int(row["n"])))
     return markdown_table(
         ["case", "N", "reduced dofs", "wall time", "Newton its (cut)", "peak memory", "μ_s"],
         [[case_label(row), row["n"], grouped_thousands(int(row["reduced_dofs"])),
           seconds(float(row["wall_s"])), f"{row['newton_iterations']} ({row['cut_steps']})",
-          f"{float(row['peak_memory_gb']):.2f} GB",
+          memory_text(row),
           f"{float(row['mu_s']):.4f}" if row["converged"] == "True" else "not converged"]
          for row in rows])
+
+
+def large_table(bench: Path) -> str:
+    """`make bench-fem`'s large surface on 2 ranks: size, wall time and its ratio to the
+    :data:`TIMING_REFERENCE` row of the same file, Newton iterations over steps, peak memory
+    beside the estimate, the slide at inception and mu_s (fem.csv)."""
+    rows = read_rows(bench / "fem.csv")
+    reference = next((row for row in rows if row["ranks"] == "2"
+                      and (row["surface"], float(row["load_star"]), int(row["n"]))
+                      == TIMING_REFERENCE), None)
+    large = sorted((row for row in rows if row["surface"] == LARGE_SURFACE
+                    and row["ranks"] == "2"), key=lambda row: int(row["n"]))
+    label = "{} F* = {:g} N = {}".format(*TIMING_REFERENCE)
+
+    def ratio(row: dict[str, str]) -> str:
+        if reference is None:
+            return "–"
+        return f"{float(row['wall_s']) / float(reference['wall_s']):.1f}"
+
+    return markdown_table(
+        ["case", "N", "reduced dofs", "wall time", f"time / {label}", "Newton its / steps",
+         "peak memory", "slide at inception", "μ_s"],
+        [[case_label(row), row["n"], grouped_thousands(int(row["reduced_dofs"])),
+          seconds(float(row["wall_s"])), ratio(row),
+          f"{row['newton_iterations']} / {row['steps']}", memory_text(row),
+          f"{1e6 * float(row['inception_slide_m']):.2f} µm",
+          f"{float(row['mu_s']):.4f}" if row["converged"] == "True" else "not converged"]
+         for row in large])
 
 
 def ladder_table(bench: Path) -> str:
@@ -361,6 +405,7 @@ TABLES: dict[str, Callable[[Path], str]] = {
     "fem.csv": fem_table,
     "fem.csv 128": partial(fem_table, only_n=128),
     "fem.csv ranks": fem_ranks_table,
+    "fem.csv large": large_table,
     "ladder.csv": ladder_table,
     "ladder_windows.csv": window_ladder_table,
     "path.csv": path_table,

@@ -40,9 +40,14 @@ def bench(tmp_path):
 
 
 def test_a_block_is_filled_from_its_bench_file_and_the_prose_is_kept(bench):
+    from roughfriction.solver.memory import memory_gb
+
     text = doc_tables.regenerate_text(DOCUMENT, bench)
-    assert "| G5, F* = 0.155 | 64 | 32 784 | 3 s | 33 (1) | 0.63 GB | 0.3073 |" in text
-    assert "| 2L, F* = 0.5 | 32 | 8 208 | 250 s | 52 (0) | 0.36 GB | not converged |" in text
+    estimates = [f"{memory_gb(n, dofs, 2):.2f}" for n, dofs in ((64, 32784), (32, 8208))]
+    assert (f"| G5, F* = 0.155 | 64 | 32 784 | 3 s | 33 (1) | 0.63 GB (est. {estimates[0]}) | "
+            "0.3073 |") in text
+    assert (f"| 2L, F* = 0.5 | 32 | 8 208 | 250 s | 52 (0) | 0.36 GB (est. {estimates[1]}) | "
+            "not converged |") in text
     assert "stale" not in text
     assert "| G5, F* = 0.155 | 64 | 7.5 s | 3 s | 2.50 | 0.44 / 0.63 GB |" in text
     outside = [part for part in doc_tables.BLOCK.split(text) if "Prose" in part]
@@ -167,3 +172,23 @@ def test_the_window_table_pairs_uniform_and_adaptive_levels_and_their_largest_di
                         "| 1.75 % | 26 592 / 14 388 |")
     assert lines[3] == ("| G5 8² window 1 | 0.93 | – / – | 0.226131 / 0.226130 | 0.00 % "
                         "| 26 592 / 24 960 |")
+
+
+def test_the_large_surface_is_timed_against_the_128_row_beside_its_memory_estimate(tmp_path):
+    (tmp_path / "fem.csv").write_text(
+        "surface,load_star,n,ranks,cells,reduced_dofs,linear_solver,wall_s,peak_memory_gb,"
+        "steps,newton_iterations,cut_steps,cut_iterations,inception_slide_m,mu_s,converged,"
+        "physics\n"
+        "G5,0.155,128,2,43696,131088,iterative,60.0,0.92,10,33,0,0,1.6e-7,0.2266,True,ab\n"
+        "G5-512,0.155,512,2,699056,2097168,iterative,1440.0,10.7,12,61,0,0,1.6e-6,0.2309,"
+        "True,ab\n")
+    from roughfriction.solver.memory import memory_gb
+
+    estimates = [f"{memory_gb(n, dofs, 2):.2f}" for n, dofs in ((128, 131088), (512, 2097168))]
+    large = doc_tables.large_table(tmp_path).splitlines()
+    assert len(large) == 3
+    assert large[2].split(" | ")[1:] == ["512", "2 097 168", "24 min", "24.0", "61 / 12",
+                                        f"10.70 GB (est. {estimates[1]})", "1.60 µm", "0.2309 |"]
+    headline = doc_tables.fem_table(tmp_path).splitlines()
+    assert len(headline) == 3 and "G5-512" not in "\n".join(headline)
+    assert f"0.92 GB (est. {estimates[0]})" in headline[2]
