@@ -81,7 +81,6 @@ def test_case_file_and_unconverged_run(rough_file, tmp_path, capsys):
 @pytest.mark.parametrize("argv, message", [
     (["--load", "-1"], "load"),
     ([], "normal load is required"),
-    (["--load", "0.3", "--n", "2"], ">= 4"),
     (["--load", "0.3", "--n", "100000"], "GB are available"),  # refused before allocating
     (["--load", "0.3", "--max-time", "5"], "--max-time limits --tol: give a tolerance"),
     (["--load", "0.3", "--refine", "--tol", "0.1"], "give --tol (with its limits) or --refine"),
@@ -92,6 +91,7 @@ def test_bad_command_lines(rough_file, argv, message, capsys):
 
 
 @pytest.mark.parametrize("argv, message", [
+    (["--n", "2"], "surface cells per side must be >= 4"),
     (["--tol", "1.5"], "a relative error below 1"),
     (["--tol", "0.1", "--max-level", "0"], "an estimate needs two levels"),
     (["--tol", "0.1", "--max-memory", "-2"], "must be a finite number > 0"),
