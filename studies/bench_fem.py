@@ -47,7 +47,7 @@ DEFAULT_SIZES = (32, 64, 128)
 PATH_FACTOR = 4
 PATH_COLUMNS = ("surface", "load_star", "n", "ranks", "path_factor", "mu_s", "mu_s_fine_path",
                 "path_error", "newton_iterations", "fine_newton_iterations", "wall_s",
-                "fine_wall_s", "converged")
+                "fine_wall_s", "converged", "physics")
 COLUMNS = ("surface", "load_star", "n", "ranks", "cells", "reduced_dofs", "linear_solver",
            "wall_s", "peak_memory_gb", "steps", "newton_iterations",
            "cut_steps", "cut_iterations", "inception_slide_m", "mu_s", "converged", "physics")
@@ -122,7 +122,7 @@ def run_size(surface: str, load: float, n: int, ranks: int, config: Path | None 
 #: empty for the whole surface.
 LADDER_COLUMNS = ("surface", "load_star", "n", "window", "ranks", "ladder", "level", "factor",
                   "reduced_dofs", "cells", "wall_s", "mu_s", "zone_escaped", "mu_s_error",
-                  "peak_memory_gb", "version")
+                  "peak_memory_gb", "version", "physics")
 #: Exit status of ``roughfriction fem --tol`` when a limit stopped the ladder (results written).
 TOLERANCE_NOT_MET = 3
 
@@ -139,7 +139,8 @@ def ladder_command(surface: str, load: float, n: int, ranks: int, max_level: int
     return command if window is None else command + ["--window", str(window)]
 
 
-def ladder_rows(summary: dict, sizes: dict, case: dict, version: str) -> list[dict]:
+def ladder_rows(summary: dict, sizes: dict, case: dict, version: str,
+                physics: str = "") -> list[dict]:
     """The ladder table's rows of one ladder from its finest level's results file: the
     ``summary`` (``studies.refinement.Ladder.summary``) and ``sizes`` attributes; ``case``
     holds surface, load_star, n, ranks and ladder. The peak memory, of the whole process, goes
@@ -156,7 +157,7 @@ def ladder_rows(summary: dict, sizes: dict, case: dict, version: str) -> list[di
                      "zone_escaped": levels["zone_escaped"][level],
                      "mu_s_error": summary["mu_s_error"] if finest else None,
                      "peak_memory_gb": sizes.get("peak_memory_gb") if finest else None,
-                     "version": version})
+                     "version": version, "physics": physics[:PHYSICS_STAMP]})
     return rows
 
 
@@ -173,9 +174,11 @@ def run_ladder_levels(surface: str, load: float, n: int, ranks: int, max_level: 
         raise RuntimeError(f"{surface} at F* = {load:g}, N = {n}{where}, {ladder} ladder: run "
                            f"failed (exit {status})")
     summary, sizes, versions = read_record(output)
+    with h5py.File(output) as h5:
+        physics = str(h5.attrs["physics"])
     case = {"surface": surface, "load_star": load, "n": n, "window": window, "ranks": ranks,
             "ladder": ladder}
-    return ladder_rows(summary, sizes, case, versions.get("roughfriction"))
+    return ladder_rows(summary, sizes, case, versions.get("roughfriction"), physics)
 
 
 def ladder_key(row: dict) -> tuple:
@@ -294,7 +297,8 @@ def path_errors(n: int, ranks: int, cases=HEADLINE_CASES, factor: float = PATH_F
                      "newton_iterations": default["newton_iterations"],
                      "fine_newton_iterations": fine["newton_iterations"],
                      "wall_s": default["wall_s"], "fine_wall_s": fine["wall_s"],
-                     "converged": default["converged"] and fine["converged"]})
+                     "converged": default["converged"] and fine["converged"],
+                     "physics": default["physics"]})
         kept = read_rows(table) | {row_key(rows[-1]): rows[-1]}
         write_csv([kept[key] for key in sorted(kept)], table, PATH_COLUMNS)
         print(json.dumps(rows[-1]), file=sys.stderr, flush=True)
