@@ -344,7 +344,7 @@ class FemOutputs:
         ``overwrite``. A results file of another request, of other physics or unconverged is
         refused (:class:`InputError`, naming which) unless ``overwrite``; so is any file
         when fields are asked for (``--xdmf``: the run is needed)."""
-        from roughfriction.studies.cache import physics_version
+        from roughfriction.studies.physics import physics_stamp, physics_version
         from roughfriction.studies.results_file import stored_run
 
         if overwrite or not self.results.is_file() or self.fields is not None:
@@ -358,8 +358,9 @@ class FemOutputs:
         if stored.request != self.request:
             why = "holds another case"
         elif stored.physics != physics:
-            why = (f"is stale: computed by other physics ({stored.physics[:12] or 'unknown'}, "
-                   f"this code {physics[:12]})")
+            why = (f"is stale: computed by other physics "
+                   f"({physics_stamp(stored.physics) or 'unknown'}, this code "
+                   f"{physics_stamp(physics)})")
         elif not stored.converged or stored.summary.get("error_tolerance_met") is False:
             why = "holds this case unconverged or short of its tolerance"
         else:
@@ -369,7 +370,7 @@ class FemOutputs:
 
     def check(self, overwrite: bool) -> None:
         """Refuse (:class:`InputError`) an output that cannot be written, or that exists when
-        ``overwrite`` is false. Creates nothing but the default results folder."""
+        ``overwrite`` is false. Creates nothing."""
         existing = [path for path in (self.results, self.coarse) if path is not None]
         for path in existing:
             check_results_file(path)

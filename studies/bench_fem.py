@@ -37,9 +37,8 @@ from roughfriction.case import SolverOptions
 from roughfriction.errors import ConvergenceError, InputError
 from roughfriction.files import atomic_write
 from roughfriction.studies.batch import BENCH_DIR
+from roughfriction.studies.physics import physics_stamp
 
-#: Hex digits of the physics version stamped on a row (``studies.physics.physics_version``).
-PHYSICS_STAMP = 12
 #: (surface, F*) of the headline rows.
 HEADLINE_CASES = (("G5", 0.155), ("G5", 0.93), ("2L", 0.5), ("G1", 1.86))
 DEFAULT_SIZES = (32, 64, 128)
@@ -114,7 +113,7 @@ def run_size(surface: str, load: float, n: int, ranks: int, config: Path | None 
                                               "cut_steps", "cut_iterations", "mu_s",
                                               "converged")})
     row["inception_slide_m"] = float(slides[-1]) if summary["mu_s"] is not None else None
-    row["physics"] = physics[:PHYSICS_STAMP]
+    row["physics"] = physics_stamp(physics)
     return row
 
 
@@ -157,7 +156,7 @@ def ladder_rows(summary: dict, sizes: dict, case: dict, version: str,
                      "zone_escaped": levels["zone_escaped"][level],
                      "mu_s_error": summary["mu_s_error"] if finest else None,
                      "peak_memory_gb": sizes.get("peak_memory_gb") if finest else None,
-                     "version": version, "physics": physics[:PHYSICS_STAMP]})
+                     "version": version, "physics": physics_stamp(physics)})
     return rows
 
 
@@ -298,7 +297,7 @@ def path_errors(n: int, ranks: int, cases=HEADLINE_CASES, factor: float = PATH_F
                      "fine_newton_iterations": fine["newton_iterations"],
                      "wall_s": default["wall_s"], "fine_wall_s": fine["wall_s"],
                      "converged": default["converged"] and fine["converged"],
-                     "physics": default["physics"]})
+                     "physics": default.get("physics")})
         kept = read_rows(table) | {row_key(rows[-1]): rows[-1]}
         write_csv([kept[key] for key in sorted(kept)], table, PATH_COLUMNS)
         print(json.dumps(rows[-1]), file=sys.stderr, flush=True)

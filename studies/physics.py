@@ -72,3 +72,12 @@ def physics_version(sources: dict[str, Path] | None = None) -> str:
         digest.update(f"{name}\0{len(code)}\0".encode())
         digest.update(code)
     return digest.hexdigest()
+
+
+#: Hex digits of the physics version in a table's stamp or a message.
+STAMP_LENGTH = 12
+
+
+def physics_stamp(version: str) -> str:
+    """The short form of a physics version (its first :data:`STAMP_LENGTH` hex digits)."""
+    return version[:STAMP_LENGTH]
