@@ -1,0 +1,133 @@
+"""The calibration set: uniform ladders 1x, 2x, 4x, 8x (16x where asked) of 16 x 16 windows,
+run resumably, one row per (window, load, level), stamped with the physics version.
+
+    mpirun -n 2 python -m roughfriction.studies.calibration_set docs/bench/calibration_ladders.csv
+
+The table holds measured values only (mu_s, areas, contact counts, cost); the error estimate
+under test is judged from it afterwards (``studies.calibration``), so an estimate can change
+without re-running the set. Each window runs all its loads on one shared preload per level
+(``solver.run.run_loads``); rows are appended after every level (rank 0, atomically) and a
+window-level already in the table with today's physics is skipped, so a killed run resumes at
+the level it was on.
+"""
+
+from __future__ import annotations
+
+import csv
+import sys
+import time
+from pathlib import Path
+
+from roughfriction.files import atomic_write
+
+#: The set: (surface, 0-based window) of SET_N x SET_N points. Windows 1 (0-based 0) of these
+#: surfaces shaped the zone rule and the earlier calibrations; these are others.
+SET_WINDOWS = (("G1", 9), ("G3", 18), ("G5", 27), ("G7", 36), ("G9", 45), ("2L", 54),
+               ("8L", 63))
+#: Window size of the set [points per side].
+SET_N = 16
+#: Normal loads F* [-], run on one shared preload per level.
+SET_LOADS = (0.06, 0.155, 0.5, 0.93, 1.86)
+#: Levels run by default (0: own grid; level L is 2^L times finer) [-].
+SET_LEVELS = (0, 1, 2, 3)
+#: Columns of the ladder table.
+COLUMNS = ("surface", "window", "n", "load_star", "level", "factor", "mu_s", "converged",
+           "area_ratio_normal", "area_ratio_sliding", "contact_nodes", "contact_patches",
+           "cells_per_patch", "steps", "newton_iterations", "reduced_dofs", "wall_level_s",
+           "peak_memory_gb", "physics")
+
+
+def read_rows(path: Path) -> list[dict]:
+    """The rows of a ladder table (strings), none when it does not exist."""
+    try:
+        with open(path, newline="") as file:
+            return list(csv.DictReader(file))
+    except FileNotFoundError:
+        return []
+
+
+def write_rows(path: Path, rows: list[dict]) -> None:
+    """Write the rows as CSV (atomically), floats to 7 significant digits."""
+    def write(temporary) -> None:
+        with open(temporary, "w", newline="") as file:
+            writer = csv.DictWriter(file, COLUMNS, extrasaction="ignore")
+            writer.writeheader()
+            for row in rows:
+                writer.writerow({key: f"{value:.7g}" if isinstance(value, float) else value
+                                 for key, value in row.items()})
+    atomic_write(Path(path), write)
+
+
+def done(rows: list[dict], surface: str, window: int, level: int, stamp: str) -> bool:
+    """Whether the table holds the window's level with physics ``stamp``."""
+    return any(row["surface"] == surface and int(row["window"]) == window + 1
+               and int(row["level"]) == level and row["physics"] == stamp for row in rows)
+
+
+def level_rows(surface: str, window: int, n: int, level: int, loads, runs, wall_s: float,
+               peak_gb: float, stamp: str) -> list[dict]:
+    """The table rows of one window-level, a row per load."""
+    rows = []
+    for load, fem_run in zip(loads, runs, strict=True):
+        summary = fem_run.result.summary()
+        rows.append({
+            "surface": surface, "window": window + 1, "n": n, "load_star": load,
+            "level": level, "factor": 2**level, "mu_s": summary["mu_s"],
+            "converged": summary["converged"],
+            "area_ratio_normal": summary["area_ratio_normal"],
+            "area_ratio_sliding": summary["area_ratio_sliding"],
+            "contact_nodes": summary["contact_nodes"],
+            "contact_patches": summary["contact_patches"],
+            "cells_per_patch": summary["cells_per_patch"], "steps": summary["steps"],
+            "newton_iterations": summary["newton_iterations"],
+            "reduced_dofs": fem_run.result.sizes["reduced_dofs"], "wall_level_s": wall_s,
+            "peak_memory_gb": peak_gb, "physics": stamp})
+    return rows
+
+
+def run_set(path: Path, comm, windows=SET_WINDOWS, n: int = SET_N, loads=SET_LOADS,
+            levels=SET_LEVELS) -> None:
+    """Run every window's levels not yet in ``path`` with today's physics, appending as each
+    finishes; progress on stderr (rank 0)."""
+    from roughfriction.case import FemCase, Loading
+    from roughfriction.geometry.generate import builtin_surface
+    from roughfriction.solver.run import run_loads
+    from roughfriction.studies.paper import surface_window
+    from roughfriction.studies.physics import physics_stamp, physics_version
+    from roughfriction.studies.refinement import level_case
+
+    stamp = physics_stamp(physics_version())
+    rows = read_rows(path)
+    for surface, window in windows:
+        case = FemCase(surface_window(builtin_surface(surface), n, window), Loading(loads[0]))
+        for level in levels:
+            if done(rows, surface, window, level, stamp):
+                continue
+            started = time.perf_counter()
+            runs = run_loads(level_case(case, level), loads, comm, progress=lambda record: None)
+            wall_s = time.perf_counter() - started
+            peak_gb = max(run.result.sizes.get("peak_memory_gb", float("nan")) for run in runs)
+            rows += level_rows(surface, window, n, level, loads, runs, wall_s, peak_gb, stamp)
+            if comm.rank == 0:
+                write_rows(path, rows)
+                values = ", ".join(f"{run.result.mu_s or float('nan'):.4f}" for run in runs)
+                print(f"{time.strftime('%H:%M')} {surface} window {window + 1} level {level} "
+                      f"({2**level}x): mu_s {values}; {runs[0].result.sizes['reduced_dofs']} "
+                      f"dofs, {wall_s:.0f} s, {peak_gb:.2f} GB", file=sys.stderr, flush=True)
+            del runs
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run the set into the table given (default docs/bench/calibration_ladders.csv); a second
+    argument lists the levels (e.g. ``0,1,2,3``)."""
+    from mpi4py import MPI
+
+    argv = sys.argv[1:] if argv is None else argv
+    path = Path(argv[0] if argv else "docs/bench/calibration_ladders.csv")
+    levels = tuple(int(level) for level in argv[1].split(",")) if len(argv) > 1 else SET_LEVELS
+    run_set(path, MPI.COMM_WORLD, levels=levels)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
