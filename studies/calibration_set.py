@@ -33,8 +33,8 @@ SET_LEVELS = (0, 1, 2, 3)
 #: Columns of the ladder table.
 COLUMNS = ("surface", "window", "n", "load_star", "level", "factor", "mu_s", "converged",
            "area_ratio_normal", "area_ratio_sliding", "contact_nodes", "contact_patches",
-           "cells_per_patch", "steps", "newton_iterations", "reduced_dofs", "wall_level_s",
-           "peak_memory_gb", "physics")
+           "cells_per_patch", "boundary_nodes", "steps", "newton_iterations", "reduced_dofs",
+           "wall_level_s", "peak_memory_gb", "physics")
 
 
 def read_rows(path: Path) -> list[dict]:
@@ -64,6 +64,20 @@ def done(rows: list[dict], surface: str, window: int, level: int, stamp: str) ->
                and int(row["level"]) == level and row["physics"] == stamp for row in rows)
 
 
+def boundary_nodes(contact) -> int | None:
+    """Contact nodes with a node out of contact among their four neighbours (periodic) on the
+    grid of in-contact flags ``contact`` (bool) [-]; None without a map."""
+    import numpy as np
+
+    if contact is None:
+        return None
+    inside = np.ones_like(contact)
+    for axis in (0, 1):
+        for shift in (1, -1):
+            inside &= np.roll(contact, shift, axis)
+    return int(np.count_nonzero(contact & ~inside))
+
+
 def level_rows(surface: str, window: int, n: int, level: int, loads, runs, wall_s: float,
                peak_gb: float, stamp: str) -> list[dict]:
     """The table rows of one window-level, a row per load."""
@@ -78,7 +92,9 @@ def level_rows(surface: str, window: int, n: int, level: int, loads, runs, wall_
             "area_ratio_sliding": summary["area_ratio_sliding"],
             "contact_nodes": summary["contact_nodes"],
             "contact_patches": summary["contact_patches"],
-            "cells_per_patch": summary["cells_per_patch"], "steps": summary["steps"],
+            "cells_per_patch": summary["cells_per_patch"],
+            "boundary_nodes": boundary_nodes(fem_run.maps.get("contact_sliding")),
+            "steps": summary["steps"],
             "newton_iterations": summary["newton_iterations"],
             "reduced_dofs": fem_run.result.sizes["reduced_dofs"], "wall_level_s": wall_s,
             "peak_memory_gb": peak_gb, "physics": stamp})
