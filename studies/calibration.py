@@ -1,108 +1,173 @@
-"""Calibration of the discretisation error estimate of mu_s against a fine uniform reference.
+"""The certificate (``studies.certificate``) judged on the calibration set, and its factors fitted.
 
-    mpirun -n 2 python -m roughfriction.studies.calibration docs/bench/calibration.csv [N]
+    python -m roughfriction.studies.calibration docs/bench/calibration_ladders.csv \
+        [docs/bench/calibration.csv]
 
-On small windows of i.i.d. (G1, G5, G9) and self-affine (2L, 8L) surfaces, each case is run on
-uniform meshes 1x, 2x, 4x and the reference 8x (``studies.refinement.level_case``; both loads
-share one preload per level, ``solver.run.run_loads``). The estimate ``--tol`` would report
-after two levels (2x value, assumed order) and after three (4x value, observed order where the
-differences shrink) is checked against the 8x value (issue 53, item 3):
+The set's ladders (``studies.calibration_set``: uniform levels 1x, 2x, 4x, 8x of 16^2
+windows) give per case (window and load) a reference: the finest level, mu_ref, with
+s_ref = |mu_ref - mu_(ref-1)| its last difference. A level L is judged when the reference is
+at least two levels finer (else s_ref is its own error). With the certificate's error e of
+mu_L, over the set (the issue's criteria):
 
-* covered: |mu_s - reference| <= mu_s_error;
-* sharp: mu_s_error <= 3 |mu_s - reference| + :data:`SHARPNESS_FLOOR` mu_s (an estimate that is
-  always huge is no estimate).
+* covered: |mu_L - mu_ref| <= e + s_ref, in at least :data:`COVERAGE` of the cases;
+* never badly overconfident: |mu_L - mu_ref| <= 3 e + s_ref in every case;
+* sharp: the median of e / max(|mu_L - mu_ref|, :data:`SHARPNESS_FLOOR` mu_L) at most
+  :data:`SHARPNESS`.
 
-The 8x value has its own error, so for the 4x estimate |mu_s - reference| is a lower bound of
-the true error. Rows are written as each surface finishes (rank 0, atomically).
+The factors (C_d, C_b) are chosen on a grid as the sharpest pair that meets the first two;
+the leave-one-out coverage (each case judged with the factors fitted without it) says how
+much of that is fit.
 """
 
 from __future__ import annotations
 
 import csv
+import math
 import sys
-import time
 from dataclasses import dataclass
 from pathlib import Path
 
+import numpy as np
 from roughfriction.files import atomic_write
-from roughfriction.studies.refinement import LADDER_RATIO, ladder_estimate, level_case
+from roughfriction.studies.certificate import BOUNDARY_FACTOR, LADDER_FACTOR, certify
 
-#: The test set: (surface, 0-based window) of CALIBRATION_N x CALIBRATION_N points.
-CALIBRATION_SURFACES = (("G1", 0), ("G5", 0), ("G9", 0), ("2L", 0), ("8L", 0), ("8L", 1))
-#: Window size of the test set [points per side].
-CALIBRATION_N = 4
-#: Normal loads F* [-].
-CALIBRATION_LOADS = (0.155, 0.93)
-#: Level of the reference (2^3 = 8x) [-].
-REFERENCE_LEVEL = 3
-#: Allowance of the sharpness check, relative to mu_s [-].
+#: Share of the cases the certificate must cover [-].
+COVERAGE = 0.9
+#: Largest median of e / max(actual error, floor) [-].
+SHARPNESS = 3.0
+#: Floor of the actual error in the sharpness ratio, relative to mu_s [-].
 SHARPNESS_FLOOR = 0.005
-#: Columns of the calibration table.
-COLUMNS = ("surface", "window", "n", "load_star", "levels_used", "mu_1x", "mu_2x", "mu_4x",
-           "reference_factor", "mu_reference", "mu_s", "mu_s_error", "order", "order_observed",
-           "actual_error", "covered", "sharp", "dofs_reference", "wall_reference_s")
-
-
-#: The calibration table quoted with every error estimate (in the checkout).
-QUOTED_TABLE = Path(__file__).resolve().parent.parent / "docs" / "bench" / "calibration_n8.csv"
-
-
-def coverage_statement(table: Path = QUOTED_TABLE) -> str:
-    """One line on what ``--tol``'s error estimate is and how often it covered the reference
-    in ``table`` (a calibration CSV of :data:`COLUMNS`); without the table, where to read it."""
-    what = "the error estimate is a Richardson extrapolation from the last two or three levels"
-    try:
-        with open(table, newline="") as file:
-            rows = list(csv.DictReader(file))
-    except OSError:
-        return f"{what}; its measured coverage is in docs/verification.md (calibration)"
-    covered = sum(row["covered"] == "True" for row in rows)
-    windows = sorted({int(row["n"]) for row in rows})
-    sizes = ", ".join(f"{n}^2" for n in windows)
-    return (f"{what}; against an {rows[0]['reference_factor']}x reference on {sizes} windows it "
-            f"covered {covered} of {len(rows)} ladders ({table.name}), not yet calibrated on "
-            "whole surfaces")
+#: A case needs a finer reference when its last difference exceeds this share of mu_s [-].
+REFERENCE_SPREAD = 0.01
+#: Factors tried by the fit [-].
+FACTOR_GRID = np.round(np.geomspace(0.01, 2.0, 47), 4)
+#: Columns of the judged table.
+COLUMNS = ("surface", "window", "n", "load_star", "level", "factor", "mu_s", "mu_coarse",
+           "contact_nodes", "boundary_nodes", "reference_factor", "mu_reference", "s_reference",
+           "mu_s_error", "ladder_term", "resolution_term", "actual_error", "covered",
+           "overconfident", "sharpness", "needs_finer_reference", "physics")
 
 
 @dataclass(frozen=True)
-class Check:
-    """One estimate against the reference: the estimated value and error, and the two
-    criteria."""
+class Case:
+    """One judged level of one case: the value, the level below, the finest level's contact
+    counts and the reference (finest level) with its last difference [-]."""
 
+    label: tuple
+    level: int
     mu_s: float
-    error: float
-    actual: float
-    covered: bool
-    sharp: bool
+    mu_coarse: float
+    contact_nodes: int
+    boundary_nodes: int
+    reference_factor: int
+    mu_reference: float
+    s_reference: float
+    physics: str
+
+    @property
+    def actual_error(self) -> float:
+        """|mu_L - mu_ref| [-]."""
+        return abs(self.mu_s - self.mu_reference)
 
 
-def check_estimate(mu_s: float, error: float, reference: float) -> Check:
-    """Check an estimate ``mu_s +- error`` against ``reference`` (module docstring)."""
-    actual = abs(mu_s - reference)
-    return Check(mu_s, error, actual, actual <= error,
-                 error <= 3.0 * actual + SHARPNESS_FLOOR * abs(mu_s))
+def read_cases(path: Path) -> list[Case]:
+    """The judged cases of a ladder table (``studies.calibration_set.COLUMNS``): every
+    converged ladder's levels L <= reference - 2 (a ladder with an unconverged level is left
+    out)."""
+    with open(path, newline="") as file:
+        rows = list(csv.DictReader(file))
+    ladders: dict[tuple, list[dict]] = {}
+    for row in rows:
+        label = (row["surface"], int(row["window"]), int(row["n"]), float(row["load_star"]))
+        ladders.setdefault(label, []).append(row)
+    cases = []
+    for label, levels in ladders.items():
+        levels = sorted(levels, key=lambda row: int(row["level"]))
+        if any(row["converged"] != "True" or row["mu_s"] == "" for row in levels):
+            continue
+        mu = [float(row["mu_s"]) for row in levels]
+        for level in range(1, len(levels) - 2):
+            row = levels[level]
+            cases.append(Case(label, level, mu[level], mu[level - 1], int(row["contact_nodes"]),
+                              int(row["boundary_nodes"]), int(levels[-1]["factor"]), mu[-1],
+                              abs(mu[-1] - mu[-2]), row["physics"]))
+    return cases
 
 
-def calibration_rows(surface: str, window: int, n: int, load: float, values: list,
-                     sizes: dict) -> list[dict]:
-    """The table rows of one case from its values on levels 0, 1, ... (coarse to fine; the
-    last is the reference): one per estimate from the first 2, 3, ... levels short of the
-    reference, each checked against it."""
-    reference = values[-1]
+def judge(case: Case, ladder_factor: float, boundary_factor: float) -> dict:
+    """The certificate of one case with these factors, and the three checks."""
+    certificate = certify((case.mu_coarse, case.mu_s), case.contact_nodes, case.boundary_nodes,
+                          ladder_factor, boundary_factor)
+    error, actual = certificate.error, case.actual_error
+    return {"mu_s_error": error, "ladder_term": certificate.ladder_term,
+            "resolution_term": certificate.resolution_term, "actual_error": actual,
+            "covered": actual <= error + case.s_reference,
+            "overconfident": actual > 3.0 * error + case.s_reference,
+            "sharpness": error / max(actual, SHARPNESS_FLOOR * abs(case.mu_s))}
+
+
+@dataclass(frozen=True)
+class Verdict:
+    """The set's three measures with one pair of factors."""
+
+    ladder_factor: float
+    boundary_factor: float
+    covered: int
+    overconfident: int
+    median_sharpness: float
+    cases: int
+
+    @property
+    def passes(self) -> bool:
+        """Coverage, no overconfident case and sharpness all met."""
+        return (self.covered >= COVERAGE * self.cases and self.overconfident == 0
+                and self.median_sharpness <= SHARPNESS)
+
+
+def verdict(cases: list[Case], ladder_factor: float, boundary_factor: float) -> Verdict:
+    """Judge every case with one pair of factors."""
+    judged = [judge(case, ladder_factor, boundary_factor) for case in cases]
+    return Verdict(ladder_factor, boundary_factor, sum(j["covered"] for j in judged),
+                   sum(j["overconfident"] for j in judged),
+                   float(np.median([j["sharpness"] for j in judged])) if judged else math.nan,
+                   len(cases))
+
+
+def fit(cases: list[Case], grid=FACTOR_GRID) -> Verdict | None:
+    """The sharpest pair of factors on ``grid`` that covers :data:`COVERAGE` of the cases with
+    none overconfident (None if no pair does)."""
+    feasible = [one for one in (verdict(cases, c_d, c_b) for c_d in grid for c_b in grid)
+                if one.covered >= COVERAGE * one.cases and one.overconfident == 0]
+    return min(feasible, key=lambda one: one.median_sharpness, default=None)
+
+
+def leave_one_out(cases: list[Case], grid=FACTOR_GRID) -> int:
+    """Cases covered by the factors fitted on the other cases (a case whose fit fails counts
+    as not covered)."""
+    covered = 0
+    for index, case in enumerate(cases):
+        fitted = fit(cases[:index] + cases[index + 1:], grid)
+        if fitted is not None:
+            covered += judge(case, fitted.ladder_factor, fitted.boundary_factor)["covered"]
+    return covered
+
+
+def table_rows(cases: list[Case], ladder_factor: float = LADDER_FACTOR,
+               boundary_factor: float = BOUNDARY_FACTOR) -> list[dict]:
+    """The judged table, a row per case, with the factors the code uses."""
     rows = []
-    for used in range(2, len(values)):
-        estimate = ladder_estimate(values[:used])
-        check = check_estimate(values[used - 1], estimate.error, reference)
-        rows.append({
-            "surface": surface, "window": window + 1, "n": n, "load_star": load,
-            "levels_used": used,
-            **{f"mu_{LADDER_RATIO**k}x": values[k] for k in range(len(values) - 1)},
-            "reference_factor": LADDER_RATIO**(len(values) - 1), "mu_reference": reference,
-            "mu_s": check.mu_s, "mu_s_error": check.error,
-            "order": estimate.order, "order_observed": estimate.observed,
-            "actual_error": check.actual, "covered": check.covered, "sharp": check.sharp,
-            **sizes,
-        })
+    for case in cases:
+        surface, window, n, load = case.label
+        rows.append({"surface": surface, "window": window, "n": n, "load_star": load,
+                     "level": case.level, "factor": 2**case.level, "mu_s": case.mu_s,
+                     "mu_coarse": case.mu_coarse, "contact_nodes": case.contact_nodes,
+                     "boundary_nodes": case.boundary_nodes,
+                     "reference_factor": case.reference_factor,
+                     "mu_reference": case.mu_reference, "s_reference": case.s_reference,
+                     **judge(case, ladder_factor, boundary_factor),
+                     "needs_finer_reference":
+                         case.s_reference > REFERENCE_SPREAD * abs(case.mu_reference),
+                     "physics": case.physics})
     return rows
 
 
@@ -118,76 +183,26 @@ def write_table(path: Path, rows: list[dict]) -> None:
     atomic_write(Path(path), write)
 
 
-def surface_levels(surface: str, window: int, n: int, loads, comm,
-                   top_level: int = REFERENCE_LEVEL) -> tuple[dict, dict]:
-    """mu_s of a window at every load on levels 0..top_level, and the finest level's size.
-
-    Returns
-    -------
-    values : dict
-        Load -> list of mu_s, coarse to fine (None for an unconverged run).
-    sizes : dict
-        ``dofs_reference`` (reduced dofs) and ``wall_reference_s`` [s] of the finest level
-        (both loads).
-    """
-    from roughfriction.case import FemCase, Loading
-    from roughfriction.geometry.generate import builtin_surface
-    from roughfriction.solver.run import run_loads
-    from roughfriction.studies.paper import surface_window
-
-    case = FemCase(surface_window(builtin_surface(surface), n, window), Loading(loads[0]))
-    values = {load: [] for load in loads}
-    sizes = {}
-    for level in range(top_level + 1):
-        started = time.perf_counter()
-        runs = run_loads(level_case(case, level), loads, comm, progress=lambda record: None)
-        for load, fem_run in zip(loads, runs, strict=True):
-            converged = fem_run.result.converged
-            values[load].append(fem_run.result.summary()["mu_s"] if converged else None)
-        sizes = {"dofs_reference": runs[0].result.sizes["reduced_dofs"],
-                 "wall_reference_s": time.perf_counter() - started}
-        if comm.rank == 0:
-            print(f"{surface} window {window + 1} level {level} ({LADDER_RATIO**level}x): "
-                  f"mu_s {[values[load][-1] for load in loads]}, {sizes['dofs_reference']} "
-                  f"dofs, {sizes['wall_reference_s']:.0f} s", file=sys.stderr, flush=True)
-        del runs
-    return values, sizes
-
-
-def run_calibration(path: Path, comm, surfaces=CALIBRATION_SURFACES, n: int = CALIBRATION_N,
-                    loads=CALIBRATION_LOADS, top_level: int = REFERENCE_LEVEL) -> list[dict]:
-    """Run the test set and write its table to ``path`` (rank 0) after every surface; a case
-    with an unconverged level is left out of the table and named on stderr."""
-    rows = []
-    for surface, window in surfaces:
-        values, sizes = surface_levels(surface, window, n, loads, comm, top_level)
-        for load in loads:
-            if None in values[load]:
-                if comm.rank == 0:
-                    print(f"{surface} window {window + 1} F* = {load}: a level did not "
-                          "converge, left out", file=sys.stderr, flush=True)
-                continue
-            rows += calibration_rows(surface, window, n, load, values[load], sizes)
-        if comm.rank == 0:
-            write_table(path, rows)
-    return rows
-
-
 def main(argv: list[str] | None = None) -> int:
-    """Run the calibration and write the table to the path given (default
-    docs/bench/calibration.csv), on windows of the size given second (default
-    :data:`CALIBRATION_N`); print the pass counts on rank 0."""
-    from mpi4py import MPI
-
+    """Judge the set of the ladder table given first with the code's factors, write the judged
+    table (second argument, default docs/bench/calibration.csv) and print the three measures,
+    the fitted factors and the leave-one-out coverage."""
     argv = sys.argv[1:] if argv is None else argv
-    path = Path(argv[0] if argv else "docs/bench/calibration.csv")
-    n = int(argv[1]) if len(argv) > 1 else CALIBRATION_N
-    rows = run_calibration(path, MPI.COMM_WORLD, n=n)
-    if MPI.COMM_WORLD.rank == 0:
-        for used in (2, 3):
-            chosen = [row for row in rows if row["levels_used"] == used]
-            print(f"{used} levels: covered {sum(row['covered'] for row in chosen)}/{len(chosen)}"
-                  f", sharp {sum(row['sharp'] for row in chosen)}/{len(chosen)}")
+    ladders = Path(argv[0] if argv else "docs/bench/calibration_ladders.csv")
+    output = Path(argv[1] if len(argv) > 1 else "docs/bench/calibration.csv")
+    cases = read_cases(ladders)
+    write_table(output, table_rows(cases))
+    used = verdict(cases, LADDER_FACTOR, BOUNDARY_FACTOR)
+    print(f"{used.cases} cases; with C_d = {LADDER_FACTOR}, C_b = {BOUNDARY_FACTOR}: covered "
+          f"{used.covered}, overconfident {used.overconfident}, median sharpness "
+          f"{used.median_sharpness:.3g} ({'passes' if used.passes else 'fails'})")
+    fitted = fit(cases)
+    if fitted is None:
+        print("no pair of factors on the grid covers the set")
+    else:
+        print(f"fitted: C_d = {fitted.ladder_factor}, C_b = {fitted.boundary_factor}: covered "
+              f"{fitted.covered}, median sharpness {fitted.median_sharpness:.3g}; "
+              f"leave-one-out covered {leave_one_out(cases)} of {len(cases)}")
     return 0
 
 

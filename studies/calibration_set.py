@@ -19,6 +19,7 @@ import time
 from pathlib import Path
 
 from roughfriction.files import atomic_write
+from roughfriction.studies.certificate import boundary_nodes
 
 #: The set: (surface, 0-based window) of SET_N x SET_N points. Windows 1 (0-based 0) of these
 #: surfaces shaped the zone rule and the earlier calibrations; these are others.
@@ -62,20 +63,6 @@ def done(rows: list[dict], surface: str, window: int, level: int, stamp: str) ->
     """Whether the table holds the window's level with physics ``stamp``."""
     return any(row["surface"] == surface and int(row["window"]) == window + 1
                and int(row["level"]) == level and row["physics"] == stamp for row in rows)
-
-
-def boundary_nodes(contact) -> int | None:
-    """Contact nodes with a node out of contact among their four neighbours (periodic) on the
-    grid of in-contact flags ``contact`` (bool) [-]; None without a map."""
-    import numpy as np
-
-    if contact is None:
-        return None
-    inside = np.ones_like(contact)
-    for axis in (0, 1):
-        for shift in (1, -1):
-            inside &= np.roll(contact, shift, axis)
-    return int(np.count_nonzero(contact & ~inside))
 
 
 def level_rows(surface: str, window: int, n: int, level: int, loads, runs, wall_s: float,

@@ -1,5 +1,5 @@
 """The error estimate of ``fem --tol``: its bookkeeping on a small ladder (files, JSON, post,
-exit 3) and the calibration table's checks (``studies.calibration``)."""
+exit 3), and the certificate judged on a calibration set (``studies.calibration``)."""
 
 import json
 
@@ -7,46 +7,10 @@ import h5py
 import pytest
 from roughfriction.scripts.cli import main
 from roughfriction.studies import calibration
-from roughfriction.studies.calibration import calibration_rows, check_estimate
 from roughfriction.studies.refinement import richardson
 
 #: A 4 x 4 window of G5 (i.i.d.): levels 1x, 2x, 4x take seconds.
 WINDOW = ["G5", "--n", "4", "--window", "1"]
-
-
-def test_an_estimate_is_checked_for_cover_and_sharpness():
-    assert check_estimate(0.20, 0.01, 0.205).covered  # error 0.005 <= 0.01
-    assert not check_estimate(0.20, 0.004, 0.205).covered
-    assert check_estimate(0.20, 0.0155, 0.205).sharp  # <= 3 x 0.005 + 0.5 % of 0.2
-    assert not check_estimate(0.20, 0.0165, 0.205).sharp
-    assert check_estimate(0.20, 0.001, 0.20).sharp  # the 0.5 % floor
-
-
-@pytest.mark.parametrize("argv, n", [(["out.csv"], calibration.CALIBRATION_N),
-                                     (["out.csv", "8"], 8)])
-def test_the_calibration_runs_on_the_window_size_given(monkeypatch, argv, n):
-    called = {}
-    monkeypatch.setattr(calibration, "run_calibration",
-                        lambda path, comm, n: called.update(path=str(path), n=n) or [])
-    assert calibration.main(argv) == 0
-    assert called == {"path": "out.csv", "n": n}
-
-
-def test_calibration_rows_check_each_estimate_against_the_finest_level():
-    values = [0.4, 0.24, 0.215, 0.21]
-    rows = calibration_rows("G5", 0, 6, 0.155, values, {"dofs_reference": 1})
-    assert [row["levels_used"] for row in rows] == [2, 3]
-    two, three = rows
-    # two levels: 0.24 +- 0.16 against 0.21: covered, but more than 3x the actual 0.03
-    assert two["mu_s"] == 0.24 and two["mu_s_error"] == pytest.approx(0.16)
-    assert not two["order_observed"] and two["covered"] and not two["sharp"]
-    # three levels: order log2(0.16 / 0.025), 0.215 +- 0.0046 against 0.21: not covered
-    assert three["mu_s"] == 0.215 and three["order_observed"]
-    assert three["mu_s_error"] == pytest.approx(richardson(values[:3]).error)
-    assert three["mu_s_error"] == pytest.approx(0.025 / (0.16 / 0.025 - 1))
-    assert three["actual_error"] == pytest.approx(0.005) and three["reference_factor"] == 8
-    assert not three["covered"] and three["sharp"]
-    assert two["window"] == 1 and two["mu_reference"] == 0.21
 
 
 @pytest.mark.fem
@@ -88,3 +52,64 @@ def test_a_tolerance_met_on_two_levels_uses_the_assumed_order(tmp_path, capsys):
     assert summary["mu_s_error"] <= 0.2 * summary["mu_s"]
     with h5py.File(output) as h5:
         assert json.loads(h5.attrs["summary"]) == summary
+
+
+# --- the certificate on the calibration set (studies.calibration) ----------------------------
+
+LADDER_HEADER = ("surface,window,n,load_star,level,factor,mu_s,converged,contact_nodes,"
+                 "boundary_nodes,physics\n")
+
+
+def _ladder_table(tmp_path, ladders):
+    """A ladder table: ladders maps (surface, load) to [(mu_s, contact, boundary), ...]."""
+    lines = [LADDER_HEADER]
+    for (surface, load), levels in ladders.items():
+        for level, (mu, contact, boundary) in enumerate(levels):
+            lines.append(f"{surface},3,16,{load},{level},{2**level},{mu},True,{contact},"
+                         f"{boundary},abc\n")
+    path = tmp_path / "ladders.csv"
+    path.write_text("".join(lines))
+    return path
+
+
+def test_a_level_is_judged_only_against_a_reference_two_levels_finer(tmp_path):
+    path = _ladder_table(tmp_path, {("G5", 0.155): [(0.3, 10, 10), (0.21, 40, 30),
+                                                    (0.205, 160, 90), (0.204, 640, 200)],
+                                    ("G1", 0.93): [(0.5, 10, 10), (0.49, 40, 30),
+                                                   (0.48, 160, 90)]})
+    cases = calibration.read_cases(path)
+    assert len(cases) == 1  # G5's 2x against 8x; G1's 2x has only 4x, its own next level
+    (g5,) = cases
+    assert g5.level == 1 and g5.mu_s == 0.21 and g5.mu_coarse == 0.3
+    assert g5.contact_nodes == 40 and g5.boundary_nodes == 30
+    assert g5.mu_reference == 0.204 and g5.s_reference == pytest.approx(0.001)
+    assert g5.reference_factor == 8 and g5.actual_error == pytest.approx(0.006)
+
+
+def test_a_case_is_judged_by_the_three_criteria(tmp_path):
+    path = _ladder_table(tmp_path, {("G5", 0.155): [(0.3, 10, 10), (0.21, 40, 30),
+                                                    (0.205, 160, 90), (0.204, 640, 200)]})
+    (case,) = calibration.read_cases(path)
+    # e = hypot(0.1 x 0.09, 0) = 0.009 >= 0.006 - 0.001: covered, sharpness 0.009 / 0.006
+    judged = calibration.judge(case, 0.1, 0.0)
+    assert judged["mu_s_error"] == pytest.approx(0.009) and judged["covered"]
+    assert not judged["overconfident"] and judged["sharpness"] == pytest.approx(1.5)
+    # e = 0.0009: 0.006 > 0.0009 + 0.001 and > 3 x 0.0009 + 0.001
+    judged = calibration.judge(case, 0.01, 0.0)
+    assert not judged["covered"] and judged["overconfident"]
+    # the sharpness floor: 0.5 % of mu_s when the actual error is smaller
+    tight = calibration.Case(("G5", 3, 16, 0.155), 1, 0.2, 0.3, 40, 30, 8, 0.2, 0.0, "abc")
+    assert calibration.judge(tight, 0.1, 0.0)["sharpness"] == pytest.approx(0.01 / 0.001)
+
+
+def test_the_fit_takes_the_sharpest_factors_that_cover_and_reports_none_when_none_do(tmp_path):
+    ladders = {(f"G{k}", 0.155): [(0.3, 10, 10), (0.21 + 0.001 * k, 400, 100),
+                                  (0.205, 1600, 200), (0.204, 6400, 400)] for k in range(1, 6)}
+    cases = calibration.read_cases(_ladder_table(tmp_path, ladders))
+    fitted = calibration.fit(cases)
+    assert fitted.covered >= 0.9 * len(cases) and fitted.overconfident == 0
+    for case in cases:  # each fitted error no smaller than needed
+        assert calibration.judge(case, fitted.ladder_factor,
+                                 fitted.boundary_factor)["covered"]
+    assert calibration.fit(cases, grid=[1e-6]) is None
+    assert 0 <= calibration.leave_one_out(cases) <= len(cases)
