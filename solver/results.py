@@ -52,6 +52,8 @@ class StepRecord:
         The shear the sticking contact could still add, over F_t
         (``RigidFlat.stuck_shear_reserve``; 0 when every contact point slips, NaN in the
         preload) [-].
+    boundary_nodes : int
+        Contact nodes on a patch boundary (:func:`count_boundary_nodes`) [-].
     """
 
     phase: str
@@ -70,6 +72,7 @@ class StepRecord:
     cuts: int = 0
     cut_iterations: int = 0
     stuck_shear_share: float = 0.0
+    boundary_nodes: int = 0
 
     def __str__(self) -> str:
         """One progress line."""
@@ -193,6 +196,17 @@ def near_flat_nodes(maps: dict, heights: np.ndarray, lowest_flat: float,
     return overlapped_nodes(heights, level, lowest_flat) & (gap < gap_limit)
 
 
+def count_boundary_nodes(contact: np.ndarray) -> int:
+    """Contact nodes with a node out of contact among their four neighbours along x and y on
+    the periodic grid of in-contact flags ``contact`` (bool, N x N) [-]."""
+    contact = np.asarray(contact, dtype=bool)
+    inside = contact.copy()
+    for axis in (0, 1):
+        for shift in (1, -1):
+            inside &= np.roll(contact, shift, axis)
+    return int(np.count_nonzero(contact & ~inside))
+
+
 def count_patches(contact: np.ndarray) -> int:
     """Connected components of contact nodes on a periodic grid [-].
 
@@ -304,6 +318,7 @@ class FemResult:
                                 if sliding and preload.area_ratio > 0 else None),
             "contact_nodes": final.contact_nodes if preload else 0,
             "contact_patches": final.contact_patches if preload else 0,
+            "boundary_nodes": final.boundary_nodes if preload else 0,
             "nodes_per_patch": nodes_per_patch(final),
             "cells_per_patch": cells,
             "reliable": None if cells is None else cells >= RELIABLE_CELLS_PER_PATCH,

@@ -19,7 +19,6 @@ import time
 from pathlib import Path
 
 from roughfriction.files import atomic_write
-from roughfriction.studies.certificate import boundary_nodes
 
 #: The set: (surface, 0-based window) of SET_N x SET_N points. Windows 1 (0-based 0) of these
 #: surfaces shaped the zone rule and the earlier calibrations; these are others.
@@ -80,7 +79,7 @@ def level_rows(surface: str, window: int, n: int, level: int, loads, runs, wall_
             "contact_nodes": summary["contact_nodes"],
             "contact_patches": summary["contact_patches"],
             "cells_per_patch": summary["cells_per_patch"],
-            "boundary_nodes": boundary_nodes(fem_run.maps.get("contact_sliding")),
+            "boundary_nodes": summary["boundary_nodes"],
             "steps": summary["steps"],
             "newton_iterations": summary["newton_iterations"],
             "reduced_dofs": fem_run.result.sizes["reduced_dofs"], "wall_level_s": wall_s,

@@ -18,28 +18,15 @@ where it does not apply).
 
 from __future__ import annotations
 
+import csv
 import math
 from dataclasses import dataclass
-
-import numpy as np
+from pathlib import Path
 
 #: Share of the last change between levels the finest value may still carry [-].
 LADDER_FACTOR = 0.15
 #: Uncertainty of a boundary node's share of the contact, in nodes [-].
 BOUNDARY_FACTOR = 0.15
-
-
-def boundary_nodes(contact: np.ndarray | None) -> int | None:
-    """Contact nodes with a node out of contact among their four neighbours on the periodic
-    grid of in-contact flags ``contact`` (bool) [-]; None without a map."""
-    if contact is None:
-        return None
-    contact = np.asarray(contact, dtype=bool)
-    inside = contact.copy()
-    for axis in (0, 1):
-        for shift in (1, -1):
-            inside &= np.roll(contact, shift, axis)
-    return int(np.count_nonzero(contact & ~inside))
 
 
 @dataclass(frozen=True)
@@ -87,3 +74,26 @@ def certify(values, contact_nodes: int, boundary: int, ladder_factor: float = LA
     resolution_term = (boundary_factor * abs(values[-1]) * math.sqrt(boundary) / contact_nodes
                        if contact_nodes > 0 else math.inf)
     return Certificate(values, ladder_term, resolution_term, int(contact_nodes), int(boundary))
+
+
+#: The judged calibration table quoted with every certificate (in the checkout).
+CALIBRATION_TABLE = Path(__file__).resolve().parent.parent / "docs" / "bench" / "calibration.csv"
+
+
+def coverage_statement(table: Path = CALIBRATION_TABLE) -> str:
+    """One line on what the certificate is and how often it covered the reference on the
+    calibration set ``table`` (``studies.calibration``'s judged table); without the table,
+    where to read it."""
+    what = ("the error is certified from the last two levels' difference and the finest "
+            "level's contact resolution (studies/certificate.py)")
+    try:
+        with open(table, newline="") as file:
+            rows = list(csv.DictReader(file))
+    except OSError:
+        rows = []
+    if not rows:
+        return f"{what}; its calibration is in docs/verification.md"
+    covered = sum(row["covered"] == "True" for row in rows)
+    return (f"{what}; on the calibration set it covered {covered} of {len(rows)} cases against "
+            f"uniform references up to {max(int(row['reference_factor']) for row in rows)}x "
+            f"({table.name})")

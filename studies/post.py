@@ -22,7 +22,7 @@ REQUIRED_ATTRIBUTES = ("inputs", "summary", "converged", "message")
 #: Step datasets every results file has (one per StepRecord field).
 STEP_FIELDS = tuple(field.name for field in fields(StepRecord))
 #: Step datasets added later: read where present (older files lack them).
-OPTIONAL_STEP_FIELDS = ("cuts",)
+OPTIONAL_STEP_FIELDS = ("cuts", "boundary_nodes")
 
 
 @dataclass(frozen=True)
