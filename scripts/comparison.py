@@ -5,9 +5,10 @@
 columns ``fem_pressure_over_Sy`` and ``fem_cells_per_patch`` say how well the mesh resolves
 the contact patches (``scripts.fem_views``); at low load ``fem_windows``,
 ``mu_fem_windows_min`` and ``mu_fem_windows_max`` give the scatter of the windows (on the
-figure's mesh). At the ``ERROR_BAR_LOADS`` a point is the mu_s on a 2x finer mesh of the same
-surface, with ``mu_fem_error`` (its two-mesh Richardson error, the bar), ``mu_fem_coarse`` and
-``fem_refinement`` (the mesh plotted: 1 or 2). A
+figure's mesh). At the ``ERROR_BAR_LOADS`` (every FEM load) a point is the mu_s on a 2x
+finer mesh of the same surface, with ``mu_fem_error`` (its certified error,
+``studies.certificate``: the bar), ``mu_fem_coarse`` and ``fem_refinement`` (the mesh
+plotted: 1 or 2). A
 statistical value outside its model's published range (``multiscale.statistical``) is drawn
 hollow on a dotted line and labelled so."""
 
@@ -27,6 +28,7 @@ from roughfriction.scripts.fem_views import (
 )
 from roughfriction.scripts.figures import new_axes
 from roughfriction.solver.results import RELIABLE_CELLS_PER_PATCH
+from roughfriction.studies.certificate import certify
 from roughfriction.studies.paper import (
     ERROR_BAR_LOADS,
     FEM_LOAD_SWEEP,
@@ -36,7 +38,7 @@ from roughfriction.studies.paper import (
     fem_case,
     window_cases,
 )
-from roughfriction.studies.refinement import next_mesh, richardson
+from roughfriction.studies.refinement import next_mesh
 
 STAND_INS = ("2L", "8L", "63M")
 #: Legend suffix of FEM points whose contact patches are not resolved.
@@ -56,23 +58,31 @@ def draw_statistical(ax, x, mu, valid, label: str, style: dict) -> None:
                 **style)
 
 
+def certified_error(coarse, fine) -> float:
+    """The certificate (``studies.certificate``) of the fine run's mu_s from the coarse run's,
+    with the fine run's contact nodes and their boundary nodes (NaN where a run has no mu_s or
+    the summary no boundary count) [-]."""
+    mu_coarse, mu_fine = fem_mu(coarse), fem_mu(fine)
+    nodes, boundary = (fine.summary.get(key) for key in ("contact_nodes", "boundary_nodes"))
+    if not (np.isfinite(mu_coarse) and np.isfinite(mu_fine)) or nodes is None or boundary is None:
+        return np.nan
+    return certify((mu_coarse, mu_fine), nodes, boundary).error
+
+
 def error_bars(coarse, fine) -> tuple[list, dict]:
-    """The run to plot at each FEM point and its error bar (Richardson at first order,
-    ``studies.refinement``), from the figure's mesh (``coarse``) and the 2x finer one
-    (``fine``, None where not run): the fine run where it reached sliding inception, with
-    error |mu_fine - mu_coarse| if the coarse run did too; else the coarse run, no bar.
-    Returns the runs and the columns ``mu_fem_coarse``, ``mu_fem_error`` [-] (NaN: none) and
-    ``fem_refinement`` (1 or 2: the mesh plotted)."""
+    """The run to plot at each FEM point and its error bar, from the figure's mesh
+    (``coarse``) and the 2x finer one (``fine``, None where not run): the fine run where it
+    reached sliding inception, with its certificate (:func:`certified_error`) if the coarse
+    run did too; else the coarse run, no bar. Returns the runs and the columns
+    ``mu_fem_coarse``, ``mu_fem_error`` [-] (NaN: none) and ``fem_refinement`` (1 or 2: the
+    mesh plotted)."""
     plotted, mu_coarse, error, refinement = [], [], [], []
     for one, finer in zip(coarse, fine, strict=True):
-        mu_one = fem_mu(one)
-        mu_finer = np.nan if finer is None else fem_mu(finer)
-        use_finer = bool(np.isfinite(mu_finer))
+        use_finer = finer is not None and bool(np.isfinite(fem_mu(finer)))
         plotted.append(finer if use_finer else one)
         refinement.append(2 if use_finer else 1)
-        mu_coarse.append(mu_one)
-        error.append(richardson([mu_one, mu_finer]).error
-                     if np.isfinite(mu_one) and use_finer else np.nan)
+        mu_coarse.append(fem_mu(one))
+        error.append(certified_error(one, finer) if use_finer else np.nan)
     return plotted, {"mu_fem_coarse": np.array(mu_coarse), "mu_fem_error": np.array(error),
                      "fem_refinement": np.array(refinement)}
 
@@ -90,7 +100,7 @@ def draw_fem(ax, x, runs, error, label: str) -> tuple[np.ndarray, np.ndarray]:
     unresolved = np.array([fem_cells_per_patch(run) < RELIABLE_CELLS_PER_PATCH
                            for run in runs]) & np.isfinite(mu_fem)
     if np.isfinite(error).any():
-        label += " (on a 2x finer mesh where barred; bar: vs 1x)"
+        label += " (on a 2x finer mesh where barred; bar: its certified error)"
     for points, style, text in ((~unresolved, {}, label),
                                 (unresolved, {"mfc": "none"}, label + UNRESOLVED)):
         if points.any():

@@ -191,6 +191,16 @@ def save_png(fig, path: Path) -> Path:
     return path
 
 
+def label_preview(fig, n: int) -> None:
+    """Write :func:`studies.paper.preview_note` at the foot of a FEM figure on ``n`` cells per
+    side (nothing on the paper's grid)."""
+    from roughfriction.studies.paper import preview_note
+
+    note = preview_note(n)
+    if note:
+        fig.text(0.01, 0.004, note, fontsize=6, color="0.35", ha="left", va="bottom")
+
+
 def make_figure(name: str, directory: Path = FIGURE_DIR, n: int | None = None,
                 runs_directory=None) -> Path:
     """Draw figure ``name`` and write its PNG and CSV into ``directory``; return the PNG path.
@@ -205,6 +215,7 @@ def make_figure(name: str, directory: Path = FIGURE_DIR, n: int | None = None,
         if runs is None:
             return png
         fig, columns = module.make(runs)
+        label_preview(fig, runs[0].n)
     else:
         fig, columns = module.make()
     save_png(fig, png)

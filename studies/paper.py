@@ -22,6 +22,17 @@ LOAD_SWEEP = tuple(float(f"{v:.3g}") for v in np.geomspace(0.05, 2.0, 10))
 #: FEM surface cells per side of the figures' runs (``--n`` or $ROUGHFRICTION_FEM_N override).
 DEFAULT_FEM_N = 32
 FEM_N_VARIABLE = "ROUGHFRICTION_FEM_N"
+#: Points per side of the paper's surfaces: FEM figures on a coarser grid are previews [-].
+PAPER_FEM_N = 128
+
+
+def preview_note(n: int) -> str:
+    """The line a FEM figure on ``n`` cells per side carries when it is a preview ("" on the
+    paper's own grid)."""
+    if n >= PAPER_FEM_N:
+        return ""
+    return (f"Quick preview: FEM on {n} x {n} surface cells, not the paper's {PAPER_FEM_N}² "
+            f"surfaces (make figures N={PAPER_FEM_N})")
 #: FEM loads F* of Figs. 26–28 (sliding); they include Fig. 14's loads and three of Figs. 22–25.
 FEM_LOAD_SWEEP = (0.06, 0.155, 0.5, 0.62, 0.93, 1.86)
 #: Loads F* of Fig. 8 (8L contact maps, normal load only).
@@ -38,10 +49,9 @@ WINDOW_SCATTER_LOADS = (0.155,)
 #: Most windows per surface in that scatter [-].
 SCATTER_WINDOWS = 4
 #: Loads F* at which the mu_s figures (22–28) also run each FEM point on a 2x finer mesh of the
-#: same surface (``studies.refinement.next_mesh``), for its error bar, where the 1x error is
-#: largest; above them the points carry no bar although their 1x error is not negligible
-#: (docs/benchmarks.md: G5 at F* = 0.93, 5 %), to save the 2x runs.
-ERROR_BAR_LOADS = (0.06, 0.155)
+#: same surface (``studies.refinement.next_mesh``): the point drawn is the 2x value, its bar
+#: the certificate of that value (``studies.certificate``). Every FEM load of those figures.
+ERROR_BAR_LOADS = tuple(sorted({*FEM_LOAD_SWEEP, *PSI_SWEEP_LOADS}))
 #: Surface and load F* of Fig. 15 (junction growth; Fig. 17 shows the theory at this load).
 JUNCTION_SURFACE, JUNCTION_LOAD = "2L", 0.5
 

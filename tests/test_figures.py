@@ -106,10 +106,15 @@ def test_fem_figures_share_runs():
         assert [c.inputs() for c in one.fem_cases(8)] == [c.inputs() for c in other.fem_cases(8)]
 
 
+#: Contact nodes and boundary nodes of every stand-in run (the certificate's resolution term).
+FAKE_CONTACT = {"contact_nodes": 400, "boundary_nodes": 100}
+
+
 def fake_runs(cases, mu_s):
     """Stand-ins for results files, enough for the mu_s figures."""
     return [types.SimpleNamespace(n=case.surface.n, load_star=case.loading.load_star,
-                                  surface_name=case.surface.name, summary={"mu_s": mu},
+                                  surface_name=case.surface.name,
+                                  summary={"mu_s": mu, **FAKE_CONTACT},
                                   inputs=case.inputs(), converged=mu is not None)
             for case, mu in zip(cases, mu_s, strict=True)]
 
@@ -135,7 +140,8 @@ def test_mu_vs_psi_marks_statistical_models_outside_their_range(monkeypatch):
     labels = fig.axes[0].get_legend_handles_labels()[1]
     assert "CKE (Eq. 8), outside its range" in labels and "LET (Eq. 20)" in labels
     assert AT_LEAST in labels
-    fig, columns = fig23.make(fake_runs(fig23.fem_cases(8), [0.9] * 9))
+    cases = fig23.fem_cases(8)
+    fig, columns = fig23.make(fake_runs(cases, [0.9] * len(cases)))
     assert not any(columns["cke_valid"]) and not any(columns["let_valid"])  # F* = 0.62 > 0.3
     labels = fig.axes[0].get_legend_handles_labels()[1]
     assert "LET (Eq. 20)" not in labels and "LET (Eq. 20), outside its range" in labels
@@ -168,7 +174,7 @@ def test_mu_vs_psi_at_low_load_shows_the_scatter_of_windows():
     from roughfriction.scripts import fig22, fig23
 
     cases = fig22.fem_cases(32)
-    assert len(cases) == 9 + 9 + 9 * 4 and len(fig23.fem_cases(32)) == 9
+    assert len(cases) == 9 + 9 + 9 * 4 and len(fig23.fem_cases(32)) == 9 + 9
     windows = cases[18:22]  # G1's
     assert {case.surface.name for case in windows} == {"G1"}
     assert len({case.surface.heights.tobytes() for case in windows}) == 4
@@ -179,16 +185,17 @@ def test_mu_vs_psi_at_low_load_shows_the_scatter_of_windows():
     assert columns["mu_fem_windows_min"][0] == 0.4 and columns["mu_fem_windows_max"][0] == 0.6
     assert list(columns["mu_fem"]) == [0.5] * 9
     assert "FEM, 4 windows on the diagonal (1x mesh)" in fig.axes[0].get_legend_handles_labels()[1]
-    _, columns = fig23.make(fake_runs(fig23.fem_cases(32), [0.3] * 9))
+    _, columns = fig23.make(fake_runs(fig23.fem_cases(32), [0.3] * 18))
     assert "fem_windows" not in columns
 
 
 def test_mu_vs_psi_error_bars_from_a_2x_finer_mesh():
-    """At F* = 0.155 each G surface also runs on a 2x finer mesh of the same surface: the
-    figure plots that mu_s with the first-order Richardson error |mu_2x - mu_1x|; where the
-    finer run failed, the figure's own run without a bar; at F* = 0.62 no finer runs."""
+    """At every load each G surface also runs on a 2x finer mesh of the same surface: the
+    figure plots that mu_s with its certificate (from |mu_2x - mu_1x| and the 2x contact);
+    where the finer run failed, the figure's own run without a bar."""
     from roughfriction.geometry.surface import bilinear_refine
     from roughfriction.scripts import fig22, fig23
+    from roughfriction.studies.certificate import certify
 
     cases = fig22.fem_cases(32)
     for coarse, fine in zip(cases[:9], cases[9:18], strict=True):
@@ -199,14 +206,18 @@ def test_mu_vs_psi_error_bars_from_a_2x_finer_mesh():
     coarse_mu = [0.5, 0.5, None, *[0.5] * 6]
     fig, columns = fig22.make(fake_runs(cases, coarse_mu + fine_mu + [0.3] * 36))
     np.testing.assert_allclose(columns["mu_fem"], [0.6, 0.5, 0.45, *[0.5] * 6])
-    np.testing.assert_allclose(columns["mu_fem_error"][[0, 3]], [0.1, 0.0], atol=1e-12)
+    np.testing.assert_allclose(columns["mu_fem_error"][[0, 3]],
+                               [certify((0.5, 0.6), 400, 100).error,
+                                certify((0.5, 0.5), 400, 100).error], rtol=1e-12)
+    assert columns["mu_fem_error"][3] == pytest.approx(0.15 * 0.5 * 10 / 400)  # C_b 0.15
     assert np.isnan(columns["mu_fem_error"][1:3]).all()
     assert list(columns["fem_refinement"]) == [2, 1, 2, *[2] * 6]
     np.testing.assert_array_equal(columns["mu_fem_coarse"][[0, 1]], [0.5, 0.5])
     labels = fig.axes[0].get_legend_handles_labels()[1]
     assert any("2x finer mesh" in label for label in labels)
-    _, columns = fig23.make(fake_runs(fig23.fem_cases(32), [0.3] * 9))
-    assert np.isnan(columns["mu_fem_error"]).all() and set(columns["fem_refinement"]) == {1}
+    cases = fig23.fem_cases(32)
+    _, columns = fig23.make(fake_runs(cases, [0.3] * len(cases)))
+    assert np.isfinite(columns["mu_fem_error"]).all() and set(columns["fem_refinement"]) == {2}
 
 
 def test_mu_vs_load_columns():
@@ -219,7 +230,7 @@ def test_mu_vs_load_columns():
     barred = np.isin(FEM_LOAD_SWEEP, ERROR_BAR_LOADS)
     assert len(cases) == len(FEM_LOAD_SWEEP) + barred.sum()
     assert list(columns["fem_refinement"][fem]) == list(np.where(barred, 2, 1))
-    np.testing.assert_array_equal(columns["mu_fem_error"][fem][barred], 0.0)
+    np.testing.assert_allclose(columns["mu_fem_error"][fem][barred], 0.15 * 0.7 * 10 / 400)
     assert np.isnan(columns["mu_fem_error"][~fem]).all()
     let = columns["model"] == "let"
     assert all((columns["note"][let] == "") == (columns["load_star"][let] <= 0.3))
@@ -248,8 +259,8 @@ def test_mu_vs_load_notes_a_failed_run_with_its_lower_bound(monkeypatch):
 
     monkeypatch.setattr(fem_views, "tangential_curve",
                         lambda run: {"Ft_over_Fn": np.array([0.0, 0.61])})
-    cases = fig28.fem_cases(8)  # 6 loads, then the lowest two on a 2x finer mesh
-    fig, columns = fig28.make(fake_runs(cases, [None] + [0.7] * 5 + [None, 0.7]))
+    cases = fig28.fem_cases(8)  # 6 loads, then the same on a 2x finer mesh
+    fig, columns = fig28.make(fake_runs(cases, [None] + [0.7] * 5 + [None] + [0.7] * 5))
     fem = columns["model"] == "fem"
     assert columns["note"][fem][0] == "failed before sliding inception: mu_s >= 0.61"
     assert not any(columns["note"][fem][1:])
@@ -364,17 +375,18 @@ def test_mu_vs_psi_draws_points_with_unresolved_patches_hollow():
     from roughfriction.scripts import fig23
     from roughfriction.scripts.comparison import UNRESOLVED
 
-    runs = fake_runs(fig23.fem_cases(8), [0.3] * 9)
-    for run, cells in zip(runs, [0.5, 3.9, *[4.0] * 7], strict=False):
+    runs = fake_runs(fig23.fem_cases(8), [0.3] * 18)
+    for run, cells in zip(runs[9:], [0.5, 3.9, *[4.0] * 7], strict=True):  # the 2x runs drawn
         run.summary["cells_per_patch"] = cells
     fig, columns = fig23.make(runs)
     handles, labels = fig.axes[0].get_legend_handles_labels()
-    hollow = handles[labels.index("FEM, N = 8" + UNRESOLVED)]
+    label = "FEM, N = 8 (on a 2x finer mesh where barred; bar: its certified error)"
+    hollow = handles[labels.index(label + UNRESOLVED)]
     assert len(hollow.lines[0].get_xdata()) == 2 and hollow.lines[0].get_mfc() == "none"
-    filled = handles[labels.index("FEM, N = 8")]
+    filled = handles[labels.index(label)]
     assert len(filled.lines[0].get_xdata()) == 7
     np.testing.assert_array_equal(columns["fem_cells_per_patch"][:2], [0.5, 3.9])
-    runs = fake_runs(fig23.fem_cases(8), [0.3] * 9)  # no cells per patch: not marked
+    runs = fake_runs(fig23.fem_cases(8), [0.3] * 18)  # no cells per patch: not marked
     labels = fig23.make(runs)[0].axes[0].get_legend_handles_labels()[1]
     assert not any(label.endswith(UNRESOLVED) for label in labels)
 
@@ -395,3 +407,17 @@ def test_the_makefile_names_no_figure_and_reads_the_registry():
                               capture_output=True, text=True).stdout
     for name, names in (("THEORY_FIGURES", THEORY_FIGURES), ("FEM_FIGURES", FEM_FIGURES)):
         assert f"{name} := {' '.join(names)}" in database.splitlines()
+
+
+def test_a_fem_figure_below_the_papers_grid_says_it_is_a_preview():
+    from roughfriction.scripts import fig22
+    from roughfriction.scripts.figures import label_preview
+
+    cases = fig22.fem_cases(8)
+    fig, _ = fig22.make(fake_runs(cases, [0.3] * len(cases)))
+    label_preview(fig, 8)
+    (note,) = [text.get_text() for text in fig.texts]
+    assert note.startswith("Quick preview: FEM on 8 x 8 surface cells, not the paper's 128²")
+    fig, _ = fig22.make(fake_runs(cases, [0.3] * len(cases)))
+    label_preview(fig, 128)
+    assert not fig.texts
