@@ -1,4 +1,4 @@
-"""``roughfriction`` command line: surface statistics, theory, FEM, figures, benchmarks.
+"""``roughfriction`` command line: surface statistics, theory, FEM, figures.
 
 Every subcommand prints a short human-readable table, or with ``--json`` one JSON object on
 stdout (SI units; NaN and infinities become ``null``) so that it can be piped into other tools.
@@ -228,6 +228,10 @@ def cmd_figure(args) -> dict:
         from roughfriction.scripts.figures import compute_fem_runs
 
         return {"fem_cases": compute_fem_runs(n=args.n)}
+    if args.name == "summaries":  # the figure runs' small JSON summaries, committed in data/runs
+        from roughfriction.scripts.figures import export_summaries
+
+        return export_summaries(n=args.n)
     if args.name == "claims":  # the paper's statements checked against the figures' CSVs
         from roughfriction.scripts.claims import write_claims
         from roughfriction.scripts.figures import FIGURE_DIR
@@ -238,7 +242,7 @@ def cmd_figure(args) -> dict:
     elif args.name in FIGURES:
         names = [args.name]
     else:
-        raise InputError(f"unknown figure {args.name!r}; known: all, runs, claims, "
+        raise InputError(f"unknown figure {args.name!r}; known: all, runs, summaries, claims, "
                          f"{', '.join(FIGURES)}")
     return {name: str(make_figure(name, n=args.n)) for name in names}
 
@@ -250,8 +254,9 @@ def cmd_runs(args) -> dict:
     from roughfriction.case import Loading
     from roughfriction.files import agreed
     from roughfriction.plausibility import material_record
-    from roughfriction.scripts.fem import case_from_args, unresolved_warning
+    from roughfriction.scripts.fem import case_from_args
     from roughfriction.studies.cache import cached_results
+    from roughfriction.studies.fem_request import unresolved_warning
     from roughfriction.studies.results_file import stored_run
 
     comm = MPI.COMM_WORLD
@@ -274,6 +279,12 @@ def cmd_runs(args) -> dict:
                      "converged": [summary.get("converged") for summary in summaries],
                      "file": [str(path) for path in paths]},
             "material": material_record(case.material)}
+
+
+def cmd_bench(args) -> dict:
+    """``roughfriction bench``: says where the benchmarks are (they are not installed)."""
+    raise InputError("the benchmarks are not installed; run them from a checkout of the "
+                     f"repository: python -m benchmarks {' '.join(args.words) or 'COMMAND'}")
 
 
 def describe_commands(parser: argparse.ArgumentParser) -> None:
@@ -366,7 +377,8 @@ def build_parser() -> argparse.ArgumentParser:
     figure = commands.add_parser("figure", help="make one of the paper's figures (PNG + CSV)")
     figure.add_argument("name", metavar="NAME",
                         help="a figure (fig3 ... fig29, written to figures/figNN.png and .csv), "
-                        "'all', 'runs' (compute every FEM figure's runs) or 'claims' (the "
+                        "'all', 'runs' (compute every FEM figure's runs), 'summaries' (write "
+                        "their run summaries to data/runs/, committed) or 'claims' (the "
                         "paper's statements checked against figures/*.csv)")
     figure.add_argument("--n", type=surface_cells, metavar="N",
                         help=f"FEM figures: surface cells per side of the runs (default "
@@ -399,10 +411,10 @@ def build_parser() -> argparse.ArgumentParser:
     runs.add_argument("--json", action="store_true", help="one JSON object on stdout")
     runs.set_defaults(run=cmd_runs, elastic=None)
 
-    from roughfriction.scripts.bench import add_bench_commands
-
-    add_bench_commands(commands.add_parser("bench", help="benchmarks; numbers go to "
-                                           "results/bench/"))
+    bench = commands.add_parser("bench", help="not installed: the benchmarks run from a "
+                                "checkout of the repository, python -m benchmarks COMMAND")
+    bench.add_argument("words", nargs=argparse.REMAINDER, help="the benchmark's command line")
+    bench.set_defaults(run=cmd_bench, json=False)
     describe_commands(parser)
     return parser
 
@@ -508,12 +520,13 @@ def terminate_as_interrupt():
         signal.signal(signal.SIGTERM, before)
 
 
-def main(argv: list[str] | None = None) -> int:
-    """The ``roughfriction`` command; returns the exit status (see the module docstring)."""
+def main(argv: list[str] | None = None, build=build_parser) -> int:
+    """The ``roughfriction`` command, or the one ``build()`` parses (``python -m benchmarks``);
+    returns the exit status (see the module docstring)."""
     quiet_library_logging()
     try:
         with terminate_as_interrupt():
-            args = build_parser().parse_args(argv)
+            args = build().parse_args(argv)
             with summarised_warnings():
                 return run_command(args)
     except KeyboardInterrupt:

@@ -183,6 +183,33 @@ def compute_fem_runs(n: int | None = None, runs_directory=None) -> int:
     return len(cases)
 
 
+def export_summaries(n: int | None = None, runs_directory=None, summaries=None) -> dict:
+    """Write the committed run summary (``studies.run_summary``) of every finished run the FEM
+    figures declare on ``n`` cells per side, from the run cache, into ``summaries`` (default
+    :func:`studies.run_summary.summaries_directory`); the counts written and missing."""
+    from roughfriction.studies import cache
+    from roughfriction.studies.paper import fem_resolution
+    from roughfriction.studies.post import read_run
+    from roughfriction.studies.run_summary import (
+        summaries_directory,
+        summary_record,
+        write_summary,
+    )
+
+    cases = [case for name in FEM_FIGURES
+             for case in figure_module(name).fem_cases(fem_resolution(n))]
+    physics, directory = cache.physics_version(), cache.runs_directory(runs_directory)
+    unique = {cache.run_key(case, physics): case for case in cases}
+    written = 0
+    for key, case in unique.items():
+        path = cache.entry_path(directory, case, physics)
+        if path.is_file():
+            write_summary(summaries_directory(summaries),
+                          summary_record(read_run(path), key, physics))
+            written += 1
+    return {"summaries_written": written, "runs_missing": len(unique) - written}
+
+
 def save_png(fig, path: Path) -> Path:
     """Write ``fig`` as a PNG of :data:`PNG_DPI` at ``path`` atomically and close it; return
     ``path``."""

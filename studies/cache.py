@@ -87,18 +87,24 @@ def entry_path(directory: Path, case: FemCase, physics: str) -> Path:
     return Path(directory) / f"{run_key(case, physics)}.h5"
 
 
-def finished_entry(directory: Path, case: FemCase, physics: str) -> Path | None:
+def finished_entry(directory: Path, case: FemCase, physics: str,
+                   summaries: Path | None = None) -> Path | None:
     """The finished entry answering ``case``, or None.
 
-    Its own entry; for a normal-only case, else the sliding run of the same case.
+    Its own entry, else its committed run summary (``studies.run_summary``, in ``summaries``,
+    default ``run_summary.summaries_directory()``); for a normal-only case, else those of the
+    sliding run of the same case.
     """
+    from roughfriction.studies.run_summary import summary_path
+
     candidates = [case]
     if case.loading.normal_only:
         candidates.append(replace(case, loading=Loading(case.loading.load_star)))
     for candidate in candidates:
-        path = entry_path(directory, candidate, physics)
-        if path.is_file():
-            return path
+        for path in (entry_path(directory, candidate, physics),
+                     summary_path(candidate, physics, summaries)):
+            if path.is_file():
+                return path
     return None
 
 
@@ -356,7 +362,7 @@ class CpuShare:
     [-]: about 1 on a quiet machine with a core per rank (a waiting MPI rank polls), less when
     other work took the cores, and then the run's wall times overstate its cost. Recorded as
     ``cpu_share`` in each run's summary; the benchmarks flag runs below
-    :data:`studies.batch.QUIET_CPU_SHARE`."""
+    ``QUIET_CPU_SHARE`` (``benchmarks/batch.py``)."""
 
     def __init__(self, comm):
         self.comm = comm

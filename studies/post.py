@@ -55,6 +55,8 @@ class RunFile:
     note : str
         How the run was obtained if not the usual way ("" otherwise), e.g. on a standalone
         normal path after its shared one failed (:mod:`studies.cache`).
+    interference_m : float or None
+        omega_0 [m] as a committed run summary (``studies.run_summary``, no maps) keeps it.
     """
 
     path: Path
@@ -67,6 +69,7 @@ class RunFile:
     timings: dict
     sizes: dict
     note: str = ""
+    interference_m: float | None = None
 
     @property
     def surface_name(self) -> str:
@@ -102,7 +105,8 @@ def read_run(path) -> RunFile:
     Parameters
     ----------
     path : str or pathlib.Path
-        An HDF5 file written by :func:`studies.results_file.write_hdf5`.
+        An HDF5 file written by :func:`studies.results_file.write_hdf5`, or a committed run
+        summary (``.json``, :func:`studies.run_summary.read_summary`).
 
     Returns
     -------
@@ -119,6 +123,10 @@ def read_run(path) -> RunFile:
     path = Path(path)
     if not path.is_file():
         raise InputError(f"no results file {path}")
+    if path.suffix == ".json":
+        from roughfriction.studies.run_summary import read_summary
+
+        return read_summary(path)
     if path.name.startswith(".") and path.name.endswith(".tmp"):
         raise InputError(f"{path} is the temporary file of an unfinished write, not a result")
     try:
@@ -243,7 +251,9 @@ def interference(run: RunFile) -> float | None:
     """
     index = preload_end(run)
     heights = run.maps.get("surface_heights")
-    if index is None or heights is None:
+    if heights is None and index is not None:
+        return run.interference_m
+    if index is None:
         return None
     return float(np.max(heights - heights.mean()) - run.steps["flat_height"][index])
 
