@@ -22,20 +22,12 @@ def reader_flags(args) -> dict:
     return {dest: getattr(args, dest, unset) for dest, (_, unset) in READER_FLAGS.items()}
 
 
-def surface_from_args(args):
-    """Load the surface named on the command line (file or built-in); reader flags given with
-    a built-in name are refused by their flag names."""
-    from roughfriction.geometry.generate import builtin_names
-    from roughfriction.geometry.readers import load_surface
+def reader_options(args):
+    """The ``ReaderOptions`` of the reader flags in parsed ``args``."""
+    from roughfriction.geometry.readers import ReaderOptions
 
     flags = reader_flags(args)
-    if args.surface in builtin_names():
-        given = [flag for dest, (flag, unset) in READER_FLAGS.items() if flags[dest] != unset]
-        if given:
-            raise InputError(f"{', '.join(given)} apply to surface files, not to the built-in "
-                             f"surface {args.surface!r}")
-    return load_surface(
-        args.surface,
+    return ReaderOptions(
         size=flags["size"],
         height_unit=flags["height_unit"],
         lateral_unit=flags["lateral_unit"],
@@ -45,6 +37,22 @@ def surface_from_args(args):
         detrend=not flags["no_detrend"],
         allow_flat=flags["allow_flat"],
     )
+
+
+def surface_from_args(args):
+    """Load the surface named on the command line (file or built-in); reader flags given with
+    a built-in name are refused by their flag names."""
+    from roughfriction.geometry.generate import builtin_names
+    from roughfriction.geometry.readers import load_surface
+
+    if args.surface in builtin_names():
+        flags = reader_flags(args)
+        given = [flag for dest, (flag, unset) in READER_FLAGS.items() if flags[dest] != unset]
+        if given:
+            raise InputError(f"{', '.join(given)} apply to surface files, not to the built-in "
+                             f"surface {args.surface!r}")
+        return load_surface(args.surface)
+    return load_surface(args.surface, reader_options(args))
 
 
 def positive_float(text: str) -> float:
