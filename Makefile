@@ -98,7 +98,7 @@ gallery: figures
 
 # --- benchmarks -------------------------------------------------------------------------
 bench-multiscale: setup
-	@$(VENV)/bin/roughfriction bench multiscale
+	@$(PY) -m benchmarks multiscale
 
 # The headline cases $(BENCH_CASES) with N = $(BENCH_N) on $(NP) ranks -> results/bench/fem.csv
 # (a row per case, N and rank count; `make bench-fem NP=1 BENCH_N="32 64" BENCH_CASES=G5:0.155`
@@ -116,9 +116,9 @@ LADDER_CASES ?= G5:0.155
 LADDER_N ?= 128
 LADDER_LEVEL ?= 1
 bench-fem: setup
-	@$(VENV)/bin/roughfriction bench fem --n $(BENCH_N) --ranks $(NP) --case $(BENCH_CASES)
-	@$(VENV)/bin/roughfriction bench fem --n $(LARGE_N) --ranks $(NP) --case $(LARGE_CASES)
-	@$(VENV)/bin/roughfriction bench ladder --n $(LADDER_N) --ranks $(NP) --case $(LADDER_CASES) \
+	@$(PY) -m benchmarks fem --n $(BENCH_N) --ranks $(NP) --case $(BENCH_CASES)
+	@$(PY) -m benchmarks fem --n $(LARGE_N) --ranks $(NP) --case $(LARGE_CASES)
+	@$(PY) -m benchmarks ladder --n $(LADDER_N) --ranks $(NP) --case $(LADDER_CASES) \
 	  --max-level $(LADDER_LEVEL)
 	@mkdir -p docs/bench && cp results/bench/fem.csv results/bench/ladder.csv docs/bench/
 
@@ -129,38 +129,40 @@ WINDOW_CASES ?= G5:0.155 G5:0.93
 WINDOW_N ?= 8
 WINDOWS ?= 1 2 3
 bench-windows: setup
-	@$(VENV)/bin/roughfriction bench ladder --n $(WINDOW_N) --window $(WINDOWS) --ranks $(NP) \
+	@$(PY) -m benchmarks ladder --n $(WINDOW_N) --window $(WINDOWS) --ranks $(NP) \
 	  --case $(WINDOW_CASES) --max-level 2 --csv results/bench/ladder_windows.csv
 	@mkdir -p docs/bench && cp results/bench/ladder_windows.csv docs/bench/
 
-# The load path's error (studies/bench_fem.py): the headline cases on the default path and on a
+# The load path's error (benchmarks/fem.py): the headline cases on the default path and on a
 # 4x finer one (largest preload and sliding increments / 4), at N = 64 (`PATH_N=32` is quicker).
 PATH_N ?= 64
 bench-path: setup
-	@$(VENV)/bin/roughfriction bench path --n $(PATH_N) --ranks $(NP) --case $(BENCH_CASES)
+	@$(PY) -m benchmarks path --n $(PATH_N) --ranks $(NP) --case $(BENCH_CASES)
 	@mkdir -p docs/bench && cp results/bench/path.csv docs/bench/
 
-# Run time against error (studies/convergence.py): G5 at F* = 0.155 and 0.93, 2L at 0.5 and G1
-# at 1.86 on their own 128^2 grids, on mesh levels $(ERROR_LEVELS) (1x, 2x) and with each knob
+# Run time against error (benchmarks/convergence.py): G5 at F* = 0.155 and 0.93, 2L at 0.5 and
+# G1 at 1.86 on their own 128^2 grids, on mesh levels $(ERROR_LEVELS) (1x, 2x) and with each knob
 # alone on 1x, through the run cache on $(NP) ranks -> results/bench/error.{csv,png}, copied to
 # docs/bench/. `make bench-error-quick`: the same on 16^2 windows, to results/bench/quick/.
 ERROR_LEVELS ?= 0 1
 bench-error: setup
-	@$(MPIRUN) $(VENV)/bin/roughfriction bench error --levels $(ERROR_LEVELS)
+	@$(MPIRUN) $(PY) -m benchmarks error --levels $(ERROR_LEVELS)
 	@mkdir -p docs/bench && cp results/bench/error.csv results/bench/error.png docs/bench/
 
 bench-error-quick: setup
-	@$(MPIRUN) $(VENV)/bin/roughfriction bench error --quick
+	@$(MPIRUN) $(PY) -m benchmarks error --quick
 
-# Where one FEM run's time goes (studies/profile.py): seconds per phase (residual assembly,
+# Where one FEM run's time goes (benchmarks/profile.py): seconds per phase (residual assembly,
 # return map, contact law, reduced tangent, linear solves) and Krylov iterations per kind of
 # solve -> results/bench/profile_*.json. `make bench-profile PROFILE_CASE=G1:1.86 N=32`;
 # `make bench-profile N=64 MEMORY_CSV=docs/bench/memory.csv` also puts this version's column of
-# the memory table into docs/bench/memory.csv (G5, F* = 0.155, N = 64 on 2 ranks).
+# the memory table into docs/bench/memory.csv (G5, F* = 0.155, N = 64 on 2 ranks);
+# `PROFILE_LEVEL=1` profiles the case on a mesh 2x finer (level 1 of its uniform ladder).
 PROFILE_CASE ?= G5:0.155
+PROFILE_LEVEL ?= 0
 bench-profile: setup
-	@$(MPIRUN) $(VENV)/bin/roughfriction bench profile $(firstword $(subst :, ,$(PROFILE_CASE))) \
-	  --load $(lastword $(subst :, ,$(PROFILE_CASE))) --n $(N) \
+	@$(MPIRUN) $(PY) -m benchmarks profile $(firstword $(subst :, ,$(PROFILE_CASE))) \
+	  --load $(lastword $(subst :, ,$(PROFILE_CASE))) --n $(N) --level $(PROFILE_LEVEL) \
 	  $(if $(MEMORY_CSV),--memory-csv $(MEMORY_CSV))
 
 # The error estimate of --tol against an 8x uniform reference on 4 x 4 windows of G1, G5, G9,
@@ -173,24 +175,29 @@ bench-calibration: setup
 
 bench: bench-multiscale bench-fem bench-windows bench-path bench-error
 
-# Stress matrix (studies/stress.py): G1-G9 (psi 1.3-26) x F* 0.01-2.5, ST400 test3; on G5:
+# Stress matrix (benchmarks/stress.py): G1-G9 (psi 1.3-26) x F* 0.01-2.5, ST400 test3; on G5:
 # penalty, step size, tolerances, material extremes; G5 at F* 0.155 on 1, 2 and 4 ranks (each
 # its own mpirun) and 5 times on $(NP) ranks, each in an empty run cache. N = $(N) ->
 # results/bench/stress.{csv,md}, copied to docs/bench/ unless a run failed silently or the
 # rank counts or repeats disagree (then the command exits 1).
 stress: setup
 	@rm -rf results/bench/stress_runs
-	@for np in 1 2 4; do mpirun -n $$np --oversubscribe $(VENV)/bin/roughfriction bench stress \
+	@for np in 1 2 4; do mpirun -n $$np --oversubscribe $(PY) -m benchmarks stress \
 	  --n $(N) --rank-run || echo "rank run on $$np rank(s) failed (its row in stress.md says why)"; done
-	@$(MPIRUN) $(VENV)/bin/roughfriction bench stress --n $(N)
+	@$(MPIRUN) $(PY) -m benchmarks stress --n $(N)
 	@mkdir -p docs/bench && cp results/bench/stress.csv results/bench/stress.md docs/bench/
 
-# The benchmark tables of README.md and docs/benchmarks.md, regenerated in place from the files
-# in docs/bench/ (studies/doc_tables.py; `--check` reports stale tables without writing).
+# The benchmark tables of README.md, docs/benchmarks.md and docs/verification.md, regenerated in
+# place from the files in docs/bench/, each with the physics stamp of its rows
+# (benchmarks/doc_tables.py). `make docs CHECK=1` writes nothing and fails on a stale table or
+# on a stamp that is not today's physics (unless the table says so, or docs/bench/equivalence.csv
+# carries the stamp to today's).
 .PHONY: docs
 docs: setup
+ifndef CHECK
 	@$(PY) -m roughfriction.scripts.scenes docs/bench/figure_scenes.csv
-	@$(PY) -m roughfriction.studies.doc_tables
+endif
+	@$(PY) -m benchmarks.doc_tables $(if $(CHECK),--check)
 
 clean:
 	rm -rf results .cache .pytest_cache

@@ -72,7 +72,7 @@ def scene_rows(n: int | None = None) -> list[dict]:
 
 def write_scenes(path: Path, n: int | None = None) -> Path:
     """Write :func:`scene_rows` as CSV (atomically); return ``path``."""
-    from roughfriction.studies.batch import csv_text, write_text
+    from roughfriction.studies.tables import csv_text, write_text
 
     write_text(Path(path), csv_text(scene_rows(n), COLUMNS))
     return Path(path)

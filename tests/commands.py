@@ -8,7 +8,8 @@ import subprocess
 import time
 
 import pytest
-from roughfriction.studies.bench_fem import mpirun_environment
+
+from benchmarks.fem import mpirun_environment
 
 
 def command_environment() -> dict:

@@ -1,10 +1,12 @@
-"""The FEM benchmark's table (studies/bench_fem.py), with a stand-in for the mpirun runs."""
+"""The FEM benchmark's table (benchmarks/fem.py), with a stand-in for the mpirun runs."""
 
 from pathlib import Path
 
 import pytest
-from roughfriction.scripts.bench import parse_case
-from roughfriction.studies import bench_fem as benchmark
+from roughfriction.studies.certificate import certify
+
+from benchmarks import fem as benchmark
+from benchmarks.cli import parse_case
 
 
 def fake_run(surface, load, n, ranks):
@@ -185,5 +187,103 @@ def test_a_ladder_runs_under_mpirun_and_reports_its_levels(tmp_path, monkeypatch
     assert [row["level"] for row in rows] == [0, 1]
     assert rows[1]["reduced_dofs"] > rows[0]["reduced_dofs"] > 0
     assert all(row["mu_s"] > 0.0 for row in rows)
-    assert rows[1]["mu_s_error"] == pytest.approx(abs(rows[1]["mu_s"] - rows[0]["mu_s"]))
+    certificate = certify([row["mu_s"] for row in rows], rows[1]["contact_nodes"],
+                          rows[1]["boundary_nodes"])
+    assert rows[1]["mu_s_error"] == pytest.approx(certificate.error)
     assert rows[1]["peak_memory_gb"] > 0.0
+
+
+#: The folders of the installed package (pyproject's package-dir), which never import the
+#: benchmarks.
+PACKAGE_FOLDERS = ("core", "geometry", "solver", "multiscale", "studies", "scripts")
+REPOSITORY = Path(__file__).resolve().parents[1]
+
+
+def benchmark_imports(source: str) -> list[str]:
+    """The modules of ``benchmarks`` that Python ``source`` imports, anywhere in it."""
+    import ast
+
+    names = []
+    for node in ast.walk(ast.parse(source)):
+        if isinstance(node, ast.Import):
+            names += [alias.name for alias in node.names]
+        elif isinstance(node, ast.ImportFrom) and node.module and not node.level:
+            names.append(node.module)
+    return [name for name in names if name == "benchmarks" or name.startswith("benchmarks.")]
+
+
+def test_the_installed_package_never_imports_the_benchmarks():
+    assert benchmark_imports("import os\ndef f():\n    from benchmarks.fem import run_size\n"
+                             "import benchmarks\n") == ["benchmarks", "benchmarks.fem"]
+    assert benchmark_imports("from roughfriction.studies import benchmarks_x\n") == []
+    found = {str(path.relative_to(REPOSITORY)): imports
+             for folder in PACKAGE_FOLDERS for path in sorted((REPOSITORY / folder).rglob("*.py"))
+             if (imports := benchmark_imports(path.read_text()))}
+    assert found == {}
+
+
+def test_the_benchmarks_are_not_installed():
+    import tomllib
+
+    setuptools = tomllib.loads((REPOSITORY / "pyproject.toml").read_text())["tool"]["setuptools"]
+    assert not any("benchmarks" in package for package in setuptools["packages"])
+    assert not any(folder.startswith("benchmarks") for folder in
+                   setuptools["package-dir"].values())
+
+
+def test_a_bad_benchmark_command_line_is_one_line_and_exits_2(capsys):
+    from benchmarks.cli import main
+
+    with pytest.raises(SystemExit) as exit_info:
+        main(["stress", "--n", "x"])
+    assert exit_info.value.code == 2
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("python -m benchmarks stress: error: ")
+    assert "invalid int value" in lines[0] and "--help" in lines[0]
+
+
+def test_every_benchmark_command_and_option_has_help():
+    import argparse
+
+    from benchmarks.cli import build_parser
+
+    def parsers(parser):
+        yield parser
+        for action in parser._actions:
+            if isinstance(action, argparse._SubParsersAction):
+                for sub in action.choices.values():
+                    yield from parsers(sub)
+
+    every = list(parsers(build_parser()))
+    assert len(every) == 9  # the front end and its eight commands
+    assert [parser.prog for parser in every if not (parser.description or "").strip()] == []
+    assert [f"{parser.prog} {action.dest}" for parser in every for action in parser._actions
+            if not isinstance(action, argparse._SubParsersAction | argparse._HelpAction)
+            and not (action.help or "").strip()] == []
+
+
+def test_a_profile_on_a_finer_level_is_named_by_its_factor():
+    assert benchmark.case_stem("G5", 0.155, 128, 2, level=1) == "G5_F0.155_N128_2x_2ranks"
+    assert benchmark.case_stem("G5", 0.155, 128, 2, level=0) == "G5_F0.155_N128_2ranks"
+    profile = profile_of(128, 4.0)
+    assert benchmark.memory_case_label(profile) == "G5 N=128 F*=0.155 2 ranks 32784 dofs"
+    profile["case"]["level"] = 2
+    assert benchmark.memory_case_label(profile) == "G5 N=128 4x F*=0.155 2 ranks 32784 dofs"
+    profile["physics"] = "0123456789ab"
+    rows = benchmark.memory_column(profile, "0.26")
+    assert {row["physics"] for row in rows} == {"0123456789ab"}
+
+
+def test_python_m_benchmarks_runs_from_the_checkout_only(tmp_path):
+    import subprocess
+    import sys
+
+    from commands import command_environment
+
+    command = [sys.executable, "-m", "benchmarks", "stress", "--n", "x"]
+    inside = subprocess.run(command, cwd=REPOSITORY, capture_output=True, text=True,
+                            env=command_environment(), timeout=120)
+    assert inside.returncode == 2 and "invalid int value: 'x'" in inside.stderr
+    outside = subprocess.run(command, cwd=tmp_path, capture_output=True, text=True,
+                             env=command_environment(), timeout=120)
+    assert outside.returncode == 1 and "No module named benchmarks" in outside.stderr

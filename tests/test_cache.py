@@ -266,7 +266,7 @@ def test_a_failure_keeps_the_runs_finished_before_it(fake_fem, tmp_path):
 
 
 def test_a_group_that_cannot_start_does_not_stop_the_others(fake_fem, tmp_path):
-    from roughfriction.studies.batch import compute_batch
+    from benchmarks.batch import compute_batch
 
     cases = [rough_case(0.155, name="bad"), rough_case(0.155), rough_case(0.3, name="bad"),
              rough_case(0.3)]

@@ -173,7 +173,6 @@ def test_version(capsys):
     (["fem", "G5", "--load", "0.1", "--bogus"], "unrecognized arguments: --bogus"),
     (["surface", "stats", "G5", "--fill", "cubic"], "invalid choice: 'cubic'"),
     (["figure"], "required: NAME"),
-    (["bench", "stress", "--n", "x"], "invalid int value"),
 ])
 def test_argparse_errors_are_one_line_and_exit_2(argv, message, capsys):
     with pytest.raises(SystemExit) as exit_info:
@@ -182,6 +181,13 @@ def test_argparse_errors_are_one_line_and_exit_2(argv, message, capsys):
     line = one_line(capsys.readouterr().err)
     assert line.startswith("roughfriction") and ": error: " in line and message in line
     assert "--help" in line  # where to read more, instead of the usage block
+
+
+def test_bench_says_in_one_line_that_the_benchmarks_run_from_a_checkout(capsys):
+    assert main(["bench", "stress", "--n", "x"]) == EXIT_INPUT_ERROR
+    line = one_line(capsys.readouterr().err)
+    assert line == ("roughfriction: error: the benchmarks are not installed; run them from a "
+                    "checkout of the repository: python -m benchmarks stress --n x")
 
 
 def subcommand_parsers(parser, prefix=("roughfriction",)):

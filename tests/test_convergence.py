@@ -1,4 +1,4 @@
-"""Run time against error (studies/convergence.py): the pure parts on synthetic data, and one
+"""Run time against error (benchmarks/convergence.py): the pure parts on synthetic data, and one
 tiny end-to-end benchmark (8^2 window, levels 1x and 2x, serial, a temporary run cache)."""
 
 import csv
@@ -9,8 +9,12 @@ import numpy as np
 import pytest
 from roughfriction import __version__
 from roughfriction.case import SolverOptions
-from roughfriction.studies.batch import NOT_IN_CACHE, batch_groups, csv_text
-from roughfriction.studies.convergence import (
+from roughfriction.studies.paper import fem_case as paper_case
+from roughfriction.studies.refinement import level_case
+from roughfriction.studies.tables import csv_text
+
+from benchmarks.batch import NOT_IN_CACHE, batch_groups
+from benchmarks.convergence import (
     CASES,
     DEFAULTS,
     ErrorPlan,
@@ -26,8 +30,6 @@ from roughfriction.studies.convergence import (
     relative_change,
     run_benchmark,
 )
-from roughfriction.studies.paper import fem_case as paper_case
-from roughfriction.studies.refinement import level_case
 
 G5_LOW, G5_HIGH, TWO_L, G1_HIGH = CASES
 

@@ -8,8 +8,9 @@ from roughfriction.case import FemCase, Loading, SolverOptions
 from roughfriction.geometry.generate import self_affine_surface
 from roughfriction.geometry.surface import Surface
 from roughfriction.material import Material
-from roughfriction.studies.peer import bem_area_limit, bem_contact, perimeter_corrected_area
 from roughfriction.studies.refinement import refined_case
+
+from benchmarks.peer import bem_area_limit, bem_contact, perimeter_corrected_area
 
 E_STAR = 2.2e11  # [Pa]
 WAVELENGTH = 1e-4  # [m]

@@ -1,4 +1,4 @@
-"""studies.profile: time per phase and Krylov iterations of one FEM run."""
+"""benchmarks.profile: time per phase and Krylov iterations of one FEM run."""
 
 import dolfinx  # noqa: F401  (an install without the FEM fails here)
 import numpy as np
@@ -9,7 +9,9 @@ from roughfriction.case import FemCase, Loading
 from roughfriction.geometry.surface import Surface
 from roughfriction.solver.equilibrium import Equilibrium
 from roughfriction.solver.linear import LinearSolver
-from roughfriction.studies.profile import PHASES, profile_run
+from roughfriction.studies.physics import physics_stamp, physics_version
+
+from benchmarks.profile import PHASES, profile_run
 
 pytestmark = pytest.mark.fem
 
@@ -52,16 +54,16 @@ def test_profile_counts_every_newton_solve_and_removes_its_wrappers():
 
 
 def test_bench_profile_command_writes_its_json(tmp_path, monkeypatch, capsys):
-    """``roughfriction bench profile G5 --load 0.155 --n 8 --json``: one figure case profiled,
+    """``python -m benchmarks profile G5 --load 0.155 --n 8 --json``: one figure case profiled,
     the same numbers on stdout and in results/bench/profile_G5_F0.155_N8_1ranks.json."""
     import json
 
-    from roughfriction.scripts import bench
-    from roughfriction.scripts.cli import main
-    from roughfriction.studies.doc_tables import memory_table
+    from benchmarks import cli as bench
+    from benchmarks.cli import main
+    from benchmarks.doc_tables import memory_table
 
     monkeypatch.setattr(bench, "BENCH_DIR", tmp_path)
-    assert main(["bench", "profile", "G5", "--load", "0.155", "--n", "8", "--json",
+    assert main(["profile", "G5", "--load", "0.155", "--n", "8", "--json",
                  "--memory-csv", str(tmp_path / "memory.csv")]) == 0
     record = json.loads(capsys.readouterr().out)
     written = json.loads((tmp_path / "profile_G5_F0.155_N8_1ranks.json").read_text())
@@ -69,7 +71,28 @@ def test_bench_profile_command_writes_its_json(tmp_path, monkeypatch, capsys):
     table = memory_table(tmp_path)  # this version's column, from the profile just run
     assert f"| kB per dof ({version}) |" in table
     assert f"| peak (VmHWM, both ranks) | {written['memory']['peak_kb_per_dof']:.3f} |" in table
-    assert written["case"] == {"surface": "G5", "load_star": 0.155, "n": 8, "ranks": 1}
+    assert written["case"] == {"surface": "G5", "load_star": 0.155, "n": 8, "ranks": 1,
+                               "level": 0}
+    assert written["physics"] == physics_stamp(physics_version())
     assert written["converged"] and written["mu_s"] == pytest.approx(record["mu_s"])
     assert record["linear solves [s]"] == pytest.approx(
         written["phases"]["linear solves"]["seconds"])
+
+
+def test_bench_profile_runs_a_finer_level_of_the_case(tmp_path, monkeypatch, capsys):
+    """``--level 1``: the same case on a mesh twice as fine, in a file named by its factor."""
+    import json
+
+    from benchmarks import cli as bench
+    from benchmarks.cli import main
+
+    monkeypatch.setattr(bench, "BENCH_DIR", tmp_path)
+    for level in (0, 1):
+        assert main(["profile", "G5", "--load", "0.155", "--n", "6", "--level", str(level),
+                     "--json"]) == 0
+    coarse, fine = (json.loads((tmp_path / f"profile_G5_F0.155_N6{part}_1ranks.json")
+                               .read_text()) for part in ("", "_2x"))
+    assert (coarse["case"]["level"], fine["case"]["level"]) == (0, 1)
+    assert fine["memory"]["reduced_dofs"] > 4 * coarse["memory"]["reduced_dofs"]
+    assert main(["profile", "G5", "--load", "0.155", "--n", "6", "--level", "-1"]) == 2
+    assert "--level must be 0 or more" in capsys.readouterr().err

@@ -1,4 +1,4 @@
-"""Stress matrix (solver/stress.py): classification, reliability, tables on synthetic data; the
+"""Stress matrix (benchmarks/stress.py): classification, reliability, tables on synthetic data; the
 step-cut count of the load path with a scripted stand-in for the equilibrium; one tiny
 end-to-end matrix (N = 8, serial, a temporary run cache) with runs that must fail loudly."""
 
@@ -14,7 +14,8 @@ from roughfriction.errors import InputError
 from roughfriction.geometry.surface import Surface
 from roughfriction.solver.progress import StepCut
 from roughfriction.solver.results import FemResult, StepRecord
-from roughfriction.studies.stress import (
+
+from benchmarks.stress import (
     ALONE,
     CUT,
     DIRECT,

@@ -1,4 +1,4 @@
-"""studies.zone_cover: how well a zone built from a run's contact holds a 2x run's contact."""
+"""benchmarks.zone_cover: how well a zone built from a run's contact holds a 2x run's contact."""
 
 import csv
 from types import SimpleNamespace
@@ -7,8 +7,9 @@ import numpy as np
 import pytest
 from roughfriction.errors import InputError
 from roughfriction.geometry.surface import bilinear_refine
-from roughfriction.scripts.cli import main
-from roughfriction.studies.zone_cover import coverage_rows, write_rows
+
+from benchmarks.cli import main
+from benchmarks.zone_cover import coverage_rows, write_rows
 
 
 def _runs(far_contact: bool, overlap_there: bool, near_there: bool = False):
@@ -94,13 +95,13 @@ def test_the_table_is_written_whole(tmp_path):
 
 
 def test_bench_zone_takes_pairs_of_runs(tmp_path, capsys):
-    assert main(["bench", "zone", str(tmp_path / "one.h5")]) == 2
+    assert main(["zone", str(tmp_path / "one.h5")]) == 2
     assert "pairs of runs" in capsys.readouterr().err
 
 
 def test_bench_zone_takes_one_label_per_pair(tmp_path, capsys):
     runs = [str(tmp_path / name) for name in ("a.h5", "b.h5")]
-    assert main(["bench", "zone", *runs, "--labels", "one", "two"]) == 2
+    assert main(["zone", *runs, "--labels", "one", "two"]) == 2
     assert "one name per pair" in capsys.readouterr().err
 
 
@@ -108,3 +109,16 @@ def test_rows_carry_the_label_given():
     rows = coverage_rows(*_runs(far_contact=False, overlap_there=False), margins=(0,),
                          label="window 1")
     assert {row["case"] for row in rows} == {"window 1"}
+
+
+def test_bench_zone_refuses_a_pair_of_runs_of_different_physics(tmp_path, capsys):
+    """A row's physics stamp is its pair's: two runs of different physics make none."""
+    import h5py
+
+    runs = []
+    for name, physics in (("coarse.h5", "a" * 64), ("fine.h5", "b" * 64)):
+        with h5py.File(tmp_path / name, "w") as h5:
+            h5.attrs["physics"] = physics
+        runs.append(str(tmp_path / name))
+    assert main(["zone", *runs]) == 2
+    assert f"different physics ({'a' * 12} and {'b' * 12})" in capsys.readouterr().err

@@ -1,15 +1,19 @@
-"""``roughfriction bench ...``: the command-line wiring of the benchmarks, whose orchestration
-lives in studies/ (:mod:`studies.bench_multiscale`, :mod:`studies.bench_fem`,
-:mod:`studies.convergence`, :mod:`studies.stress`). Numbers go to ``results/bench/``; they are
-not timed tests."""
+"""``python -m benchmarks COMMAND ...``, run from a checkout of the repository: the command line
+of the benchmarks, whose work lives in the modules beside it (:mod:`benchmarks.multiscale`,
+:mod:`benchmarks.fem`, :mod:`benchmarks.convergence`, :mod:`benchmarks.stress`,
+:mod:`benchmarks.zone_cover`). Numbers go to ``results/bench/``; they are not timed tests.
+Output (a table, or JSON with ``--json``), exit status and warnings as ``roughfriction``'s
+(:mod:`roughfriction.scripts.cli`)."""
 
 from __future__ import annotations
 
+import argparse
 from pathlib import Path
 
 from roughfriction.errors import InputError
-from roughfriction.studies.batch import BENCH_DIR
 from roughfriction.version import __version__
+
+from benchmarks.batch import BENCH_DIR
 
 
 def parse_case(text: str) -> tuple[str, float]:
@@ -21,16 +25,17 @@ def parse_case(text: str) -> tuple[str, float]:
         raise InputError(f"a benchmark case is SURFACE:LOAD, e.g. G5:0.155, got {text!r}") from None
 
 
-def add_bench_commands(bench) -> None:
-    """``roughfriction bench multiscale|fem|path|error|stress|profile`` under the ``bench``
-    sub-parser."""
-    from roughfriction.studies import convergence
-    from roughfriction.studies.bench_fem import DEFAULT_SIZES as FEM_SIZES
-    from roughfriction.studies.bench_fem import HEADLINE_CASES as FEM_CASES
+def add_bench_commands(parser: argparse.ArgumentParser) -> None:
+    """The commands multiscale, fem, ladder, path, error, stress, profile and zone under
+    ``parser``."""
     from roughfriction.studies.paper import DEFAULT_FEM_N
 
+    from benchmarks import convergence
+    from benchmarks.fem import DEFAULT_SIZES as FEM_SIZES
+    from benchmarks.fem import HEADLINE_CASES as FEM_CASES
+
     headline = [f"{surface}:{load:g}" for surface, load in FEM_CASES]
-    kinds = bench.add_subparsers(dest="bench_command", required=True)
+    kinds = parser.add_subparsers(dest="bench_command", metavar="COMMAND", required=True)
     multiscale = kinds.add_parser("multiscale", help="time the theory over Figs. 22-28's cases "
                                   f"-> {BENCH_DIR / 'multiscale.csv'}")
     multiscale.set_defaults(run=cmd_bench_multiscale)
@@ -111,6 +116,9 @@ def add_bench_commands(bench) -> None:
     profile.add_argument("--load", type=float, required=True, help="F* = F_n / (A_n S_y)")
     profile.add_argument("--n", type=int, default=DEFAULT_FEM_N,
                          help=f"surface cells per side (default {DEFAULT_FEM_N})")
+    profile.add_argument("--level", type=int, default=0, metavar="K",
+                         help="profile level K of the case's uniform ladder, a mesh 2^K times "
+                         "finer (default 0, the surface's grid)")
     profile.add_argument("--memory-csv", type=Path, metavar="CSV",
                          help="also put this version's memory rows into CSV (replacing its "
                          "earlier ones; the file's rows must be of the same case), e.g. "
@@ -134,23 +142,23 @@ def add_bench_commands(bench) -> None:
 
 
 def cmd_bench_multiscale(args) -> dict:
-    """Theory timings (:func:`roughfriction.studies.bench_multiscale.bench_multiscale`)."""
-    from roughfriction.studies.bench_multiscale import bench_multiscale
+    """Theory timings (:func:`benchmarks.multiscale.bench_multiscale`)."""
+    from benchmarks.multiscale import bench_multiscale
 
     return bench_multiscale()
 
 
 def cmd_bench_fem(args) -> dict:
-    """FEM benchmark rows (:mod:`roughfriction.studies.bench_fem`)."""
-    from roughfriction.studies.bench_fem import benchmark_sizes
+    """FEM benchmark rows (:mod:`benchmarks.fem`)."""
+    from benchmarks.fem import benchmark_sizes
 
     cases = [parse_case(text) for text in args.case]
     return {"runs": benchmark_sizes(args.n, args.ranks, cases), "csv": str(BENCH_DIR / "fem.csv")}
 
 
 def cmd_bench_ladder(args) -> dict:
-    """Ladder benchmark rows (:func:`roughfriction.studies.bench_fem.benchmark_ladders`)."""
-    from roughfriction.studies.bench_fem import benchmark_ladders
+    """Ladder benchmark rows (:func:`benchmarks.fem.benchmark_ladders`)."""
+    from benchmarks.fem import benchmark_ladders
 
     if args.max_level < 1:
         raise InputError(f"--max-level must be at least 1, got {args.max_level}")
@@ -161,8 +169,8 @@ def cmd_bench_ladder(args) -> dict:
 
 
 def cmd_bench_path(args) -> dict:
-    """Load-path error rows (:func:`roughfriction.studies.bench_fem.path_errors`)."""
-    from roughfriction.studies.bench_fem import path_errors
+    """Load-path error rows (:func:`benchmarks.fem.path_errors`)."""
+    from benchmarks.fem import path_errors
 
     cases = [parse_case(text) for text in args.case]
     return {"runs": path_errors(args.n, args.ranks, cases), "csv": str(BENCH_DIR / "path.csv")}
@@ -170,11 +178,15 @@ def cmd_bench_path(args) -> dict:
 
 def cmd_bench_profile(args) -> dict:
     """Time per phase and Krylov iterations of one figure case
-    (:func:`roughfriction.studies.bench_fem.profile_case`), as a table."""
+    (:func:`benchmarks.fem.profile_case`), as a table."""
     from mpi4py import MPI
-    from roughfriction.studies.bench_fem import add_memory_column, profile_case
 
-    profile, path = profile_case(args.surface, args.load, args.n, MPI.COMM_WORLD, BENCH_DIR)
+    from benchmarks.fem import add_memory_column, profile_case
+
+    if args.level < 0:
+        raise InputError(f"--level must be 0 or more, got {args.level}")
+    profile, path = profile_case(args.surface, args.load, args.n, MPI.COMM_WORLD, BENCH_DIR,
+                                 args.level)
     if args.memory_csv is not None and MPI.COMM_WORLD.rank == 0:
         add_memory_column(args.memory_csv, profile, ".".join(__version__.split(".")[:2]))
     record = {key: profile[key] for key in ("wall_s", "newton_iterations", "cut_steps", "mu_s")}
@@ -188,12 +200,14 @@ def cmd_bench_profile(args) -> dict:
 
 
 def cmd_bench_zone(args) -> dict:
-    """Zone coverage rows (:mod:`roughfriction.studies.zone_cover`) of each pair of runs."""
+    """Zone coverage rows (:mod:`benchmarks.zone_cover`) of each pair of runs."""
     from roughfriction.studies.post import read_run
-    from roughfriction.studies.zone_cover import MARGINS, coverage_rows, write_rows
+
+    from benchmarks.batch import run_physics
+    from benchmarks.zone_cover import MARGINS, coverage_rows, write_rows
 
     if len(args.runs) % 2:
-        raise InputError(f"bench zone takes pairs of runs (coarse, then 2x); got {len(args.runs)} "
+        raise InputError(f"zone takes pairs of runs (coarse, then 2x); got {len(args.runs)} "
                          "files")
     margins = MARGINS if args.margins is None else args.margins
     if any(margin < 0 for margin in margins):
@@ -205,15 +219,21 @@ def cmd_bench_zone(args) -> dict:
                          f"{len(labels)}")
     rows = []
     for (coarse, fine), label in zip(pairs, labels, strict=True):
-        rows += coverage_rows(read_run(coarse), read_run(fine), margins, label)
+        physics = {run_physics(coarse), run_physics(fine)}
+        if len(physics) > 1:
+            raise InputError(f"{coarse} and {fine} were computed by different physics "
+                             f"({' and '.join(sorted(physics))}): run them with the same code")
+        stamp = physics.pop()
+        rows += [row | {"physics": stamp}
+                 for row in coverage_rows(read_run(coarse), read_run(fine), margins, label)]
     path = write_rows(rows, Path(args.output))
     return {"csv": str(path), "coverage": {key: [row[key] for row in rows] for key in rows[0]}}
 
 
 def cmd_bench_error(args) -> dict:
-    """Run time against error (:mod:`roughfriction.studies.convergence`)."""
-    from roughfriction.studies import convergence
-    from roughfriction.studies.batch import batch_plan
+    """Run time against error (:mod:`benchmarks.convergence`)."""
+    from benchmarks import convergence
+    from benchmarks.batch import batch_plan
 
     n, levels, output = convergence.BASE_N, convergence.LEVELS, BENCH_DIR
     if args.quick:
@@ -238,10 +258,10 @@ def cmd_bench_error(args) -> dict:
 
 
 def cmd_bench_stress(args) -> dict:
-    """The stress matrix (:mod:`roughfriction.studies.stress`); a silent failure or runs that
+    """The stress matrix (:mod:`benchmarks.stress`); a silent failure or runs that
     disagree between rank counts or repeats are an error."""
-    from roughfriction.studies import stress
-    from roughfriction.studies.batch import batch_plan
+    from benchmarks import stress
+    from benchmarks.batch import batch_plan
 
     if args.rank_run:
         from mpi4py import MPI
@@ -269,3 +289,22 @@ def cmd_bench_stress(args) -> dict:
         raise InputError(f"{silent} SILENT FAILURE(S), {len(disagreements)} disagreement(s) "
                          f"of rank counts or repeats: see {Path(args.output) / 'stress.md'}")
     return {"rows": len(rows or []), "csv": str(Path(args.output) / "stress.csv")}
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The ``python -m benchmarks`` parser (errors in one line, exit 2, as ``roughfriction``'s)."""
+    from roughfriction.scripts.cli import OneLineParser, describe_commands
+
+    parser = OneLineParser(prog="python -m benchmarks",
+                           description="The benchmarks of roughfriction, run from a checkout of "
+                           "its repository; numbers go to results/bench/ (docs/benchmarks.md).")
+    add_bench_commands(parser)
+    describe_commands(parser)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    """``python -m benchmarks``; returns the exit status (``roughfriction.scripts.cli.main``)."""
+    from roughfriction.scripts import cli
+
+    return cli.main(argv, build_parser)

@@ -1,7 +1,7 @@
 """Stress matrix of the FEM (``make stress``): where it converges, how, and where it is reliable.
 
-    mpirun -n 2 roughfriction bench stress --n 32
-    roughfriction bench stress --plan --n 32     # the runs, without computing them
+    mpirun -n 2 python -m benchmarks stress --n 32
+    python -m benchmarks stress --plan --n 32     # the runs, without computing them
 
 Runs (tables below), every one a :class:`~roughfriction.case.FemCase` through the run cache on an
 N x N grid: G1–G9 as the figures mesh them (an N x N window at their own spacing, psi 1.3 to
@@ -11,9 +11,9 @@ loading path; F* = 1.86 and 2.5 are near-complete contact); the measured surface
 with each solver option of :data:`OPTIONS` (contact penalty, first tangential step, Newton
 and penetration tolerances) times its :data:`OPTION_FACTORS`, and with the material extremes
 of :data:`MATERIALS`; G5 at :data:`CHECK_LOAD` on each of :data:`RANK_COUNTS` ranks (each its
-own ``mpirun ... bench stress --rank-run``) and :data:`REPEATS` times on this command's ranks,
-each of these in its own, initially empty, run cache (:func:`check_directory`), so that it is
-computed, not looked up.
+own ``mpirun ... -m benchmarks stress --rank-run``) and :data:`REPEATS` times on this
+command's ranks, each of these in its own, initially empty, run cache
+(:func:`check_directory`), so that it is computed, not looked up.
 
 Each run is classified (:func:`classify`):
 
@@ -60,14 +60,9 @@ from roughfriction.solver.results import (
     at_inception,
     plateau_change,
 )
-from roughfriction.studies.batch import (
-    BatchResult,
-    cached_batch,
-    compute_batch,
-    csv_text,
-    summary_columns,
-    write_text,
-)
+from roughfriction.studies.tables import csv_text, write_text
+
+from benchmarks.batch import BatchResult, cached_batch, compute_batch, summary_columns
 
 # --- what is run -----------------------------------------------------------------------------
 
@@ -102,7 +97,7 @@ MATERIALS = {"nu = 0.499": {"nu": 0.499}, "no hardening (E_t = 1e-6 E)": {"Et": 
              "very stiff (E = 2000 GPa)": {"E": 2e12}, "very soft (E = 20 GPa)": {"E": 2e10}}
 #: Load F* [-] of the rank and repeat runs (on OPTION_SURFACE).
 CHECK_LOAD = 0.155
-#: MPI rank counts of the rank runs, each its own ``mpirun`` (``bench stress --rank-run``).
+#: MPI rank counts of the rank runs, each its own ``mpirun`` (``-m benchmarks stress --rank-run``).
 RANK_COUNTS = (1, 2, 4)
 #: Repeats of the check run on this command's ranks, each computed in an empty run cache.
 REPEATS = 5
@@ -263,7 +258,7 @@ def run_facts(run) -> dict:
     Returns
     -------
     dict
-        :func:`studies.batch.summary_columns`, plus ``normal_only``, ``inception`` (the last
+        :func:`benchmarks.batch.summary_columns`, plus ``normal_only``, ``inception`` (the last
         sliding step is at inception, ``solver.results.at_inception``; None without a sliding
         step) and ``force_error`` (F_n of the last step over its target - 1 [-]; None without
         steps).
@@ -445,7 +440,7 @@ COLUMNS = ("kind", "surface", "n", "load_star", "psi", "option", "factor", "vari
            "area_ratio_normal", "area_ratio_sliding", "junction_growth", "contact_nodes",
            "contact_patches", "nodes_per_patch", "cells_per_patch", "reliable", "steps",
            "cut_steps", "newton_iterations", "wall_s", "peak_memory_gb", "expected_ranks",
-           "ranks")
+           "ranks", "physics")
 UNRELIABLE_MARK = "†"
 
 
@@ -618,7 +613,7 @@ def provenance_line() -> str:
 def rank_run_missing(run: StressRun, n: int) -> str:
     """The message of a rank run whose own mpirun has not run."""
     return (f"not computed: run it first with mpirun -n {run.ranks} --oversubscribe "
-            f"roughfriction bench stress --n {n} --rank-run (make stress does)")
+            f"python -m benchmarks stress --n {n} --rank-run (make stress does)")
 
 
 def compute_rank_run(n: int, output: Path, comm, progress=None) -> Path | None:
@@ -636,7 +631,7 @@ def compute_rank_run(n: int, output: Path, comm, progress=None) -> Path | None:
 
 def compute_runs(runs: Sequence[StressRun], n: int, output: Path, comm, runs_directory=None,
                  progress=None) -> list:
-    """The :class:`~studies.batch.BatchResult` of each run (None: not set up): the plan's runs
+    """The :class:`~benchmarks.batch.BatchResult` of each run (None: not set up): the plan's runs
     through the run cache, each repeat computed in its own, the rank runs read from theirs."""
     plain = [run for run in runs if run.case is not None and run.kind not in CHECK_KINDS]
     results = dict(zip((id(run) for run in plain),

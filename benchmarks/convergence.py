@@ -1,8 +1,8 @@
 """Run time against error of the FEM on the paper's surfaces (``make bench-error``).
 
-    mpirun -n 2 roughfriction bench error              # the four cases on their 128^2 grids
-    mpirun -n 2 roughfriction bench error --quick      # the same on 16^2 windows
-    roughfriction bench error --plan                   # the runs, without computing them
+    mpirun -n 2 python -m benchmarks error              # the four cases on their 128^2 grids
+    mpirun -n 2 python -m benchmarks error --quick      # the same on 16^2 windows
+    python -m benchmarks error --plan                   # the runs, without computing them
 
 Cases (:data:`CASES`): G5 at F* = 0.155 and 0.93, the 2L stand-in at F* = 0.5 and G1 at
 F* = 1.86, each on its own 128 x 128 grid (:func:`studies.paper.fem_surface`). Each case is run
@@ -21,8 +21,8 @@ nothing. All ranks compute; rank 0 writes.
 Errors (rank 0), relative for mu_s and A_r/A_n (under the normal load), differences for the
 junction growth: against the case's reference (``*_error``) and against the run's comparator
 (``*_change``: a knob against the defaults, a level against the next coarser one). Wall time
-(``total_s``) and peak memory (summed over the ranks) come from the results files, and so does
-``version``, the code that computed the run.
+(``total_s``) and peak memory (summed over the ranks) come from the results files, and so do
+``version``, the code that computed the run, and ``physics``, the stamp of its physics.
 
 Output: ``error.csv`` and ``error.png`` (wall time against |mu_s error|, a panel per case, the
 Pareto front dashed, the defaults starred) in ``results/bench/`` (``--quick``:
@@ -38,14 +38,10 @@ from pathlib import Path
 
 from roughfriction.case import FemCase
 from roughfriction.files import atomic_write
-from roughfriction.studies.batch import (
-    cached_batch,
-    compute_batch,
-    csv_text,
-    summary_columns,
-    write_text,
-)
 from roughfriction.studies.refinement import LADDER_RATIO, level_case, richardson
+from roughfriction.studies.tables import csv_text, write_text
+
+from benchmarks.batch import cached_batch, compute_batch, summary_columns
 
 # --- what is run -----------------------------------------------------------------------------
 
@@ -323,11 +319,11 @@ COLUMNS = ("case", "knob", "value", "label", "level", "is_default", "converged",
            "reference_error", "reference_order", "mu_s_error", "area_error", "growth_error",
            "compared_with", "mu_s_change", "area_change", "growth_change", "wall_s",
            "peak_memory_gb", "cpu_share", "ranks", "steps", "cut_steps", "newton_iterations",
-           "version")
+           "version", "physics")
 
 
 def measured(result) -> dict:
-    """The columns of one run (a :class:`studies.batch.BatchResult`) from its results file,
+    """The columns of one run (a :class:`benchmarks.batch.BatchResult`) from its results file,
     with ``version``, the code that computed it."""
     from roughfriction.studies.post import read_run
     from roughfriction.studies.results_file import run_version

@@ -26,7 +26,8 @@ from roughfriction.geometry.adaptive import (
     uncovered_nodes,
 )
 from roughfriction.solver.results import near_flat_nodes, touched_nodes
-from roughfriction.studies.bench_fem import write_csv
+
+from benchmarks.fem import write_csv
 
 #: Margins [cells of the coarse grid] tried by default.
 MARGINS = (0, 1, 2, 3, 4, 5)
@@ -35,7 +36,7 @@ MARGINS = (0, 1, 2, 3, 4, 5)
 RULES = ("contact", "contact + overlap", "contact + near the flat")
 #: Columns of the coverage table.
 FIELDS = ("case", "rule", "margin", "zone_share", "uncovered", "fine_contact_nodes",
-          "lowest_flat_m", "overlap_share")
+          "lowest_flat_m", "overlap_share", "physics")
 
 
 def coverage_rows(coarse, fine, margins=MARGINS, label: str | None = None) -> list[dict]:

@@ -1,7 +1,7 @@
 """FEM benchmark: the headline cases on N x N surface grids, each run by ``mpirun`` as the CLI
 (``roughfriction fem``), and the time profile of one run.
 
-    roughfriction bench fem --n 32 64 128 --ranks 2 --case G5:0.155 G1:1.86
+    python -m benchmarks fem --n 32 64 128 --ranks 2 --case G5:0.155 G1:1.86
 
 Headline cases (the default): G5 at F* = 0.155 and 0.93, the 2L stand-in at 0.5, G1 at 1.86
 (complete contact). Writes ``results/bench/fem.csv`` (one row per case, N and rank count,
@@ -10,15 +10,15 @@ or rank counts already in the file are kept) with wall time, peak memory summed 
 ranks, steps, Newton iterations, mu_s and the problem size; each run's full record goes to
 ``results/bench/fem_<surface>_F<load>_N<N>_<ranks>ranks.h5``.
 
-    roughfriction bench path --n 64
+    python -m benchmarks path --n 64
 
 The load path's error per case: each case on the default path and on one ``PATH_FACTOR`` times
 finer (largest preload and sliding increments divided by it, ``SolverOptions``), written to
 ``results/bench/path.csv`` with mu_s of both and their relative difference.
 
-    mpirun -n 2 roughfriction bench profile G5 --load 0.155 --n 32
+    mpirun -n 2 python -m benchmarks profile G5 --load 0.155 --n 32
 
-Where one figure case's time goes (:mod:`studies.profile`), written as JSON to
+Where one figure case's time goes (:mod:`benchmarks.profile`), written as JSON to
 ``results/bench/profile_<surface>_F<load>_N<n>_<ranks>ranks.json``.
 """
 
@@ -36,8 +36,9 @@ import numpy as np
 from roughfriction.case import SolverOptions
 from roughfriction.errors import ConvergenceError, InputError
 from roughfriction.files import atomic_write
-from roughfriction.studies.batch import BENCH_DIR
 from roughfriction.studies.physics import physics_stamp
+
+from benchmarks.batch import BENCH_DIR
 
 #: (surface, F*) of the headline rows.
 HEADLINE_CASES = (("G5", 0.155), ("G5", 0.93), ("2L", 0.5), ("G1", 1.86))
@@ -81,10 +82,12 @@ def read_record(path: Path) -> tuple[dict, dict, dict]:
         return json.loads(h5.attrs["summary"]), sizes, json.loads(h5.attrs["versions"])
 
 
-def case_stem(surface: str, load: float, n: int, ranks: int, window: int | None = None) -> str:
-    """``<surface>_F<load>_N<n>[_W<window>]_<ranks>ranks``: the file name of one benchmark
-    case's output."""
+def case_stem(surface: str, load: float, n: int, ranks: int, window: int | None = None,
+              level: int = 0) -> str:
+    """``<surface>_F<load>_N<n>[_W<window>][_<2^level>x]_<ranks>ranks``: the file name of one
+    benchmark case's output (the level's factor only above level 0)."""
     part = "" if window is None else f"_W{window}"
+    part += f"_{2**level}x" if level else ""
     return f"{surface}_F{load:g}_N{n}{part}_{ranks}ranks"
 
 
@@ -120,8 +123,8 @@ def run_size(surface: str, load: float, n: int, ranks: int, config: Path | None 
 #: Columns of the ladder table (ladder.csv): one row per level of a ladder; ``window`` is
 #: empty for the whole surface.
 LADDER_COLUMNS = ("surface", "load_star", "n", "window", "ranks", "ladder", "level", "factor",
-                  "reduced_dofs", "cells", "wall_s", "mu_s", "zone_escaped", "mu_s_error",
-                  "peak_memory_gb", "version", "physics")
+                  "reduced_dofs", "cells", "wall_s", "mu_s", "zone_escaped", "contact_nodes",
+                  "boundary_nodes", "mu_s_error", "peak_memory_gb", "version", "physics")
 #: Exit status of ``roughfriction fem --tol`` when a limit stopped the ladder (results written).
 TOLERANCE_NOT_MET = 3
 
@@ -154,6 +157,8 @@ def ladder_rows(summary: dict, sizes: dict, case: dict, version: str,
                      "cells": levels["cells"][level], "wall_s": levels["wall_s"][level],
                      "mu_s": levels["mu_s"][level],
                      "zone_escaped": levels["zone_escaped"][level],
+                     **{key: levels[key][level] if key in levels else None
+                        for key in ("contact_nodes", "boundary_nodes")},
                      "mu_s_error": summary["mu_s_error"] if finest else None,
                      "peak_memory_gb": sizes.get("peak_memory_gb") if finest else None,
                      "version": version, "physics": physics_stamp(physics)})
@@ -308,25 +313,32 @@ def path_errors(n: int, ranks: int, cases=HEADLINE_CASES, factor: float = PATH_F
 #: memory.csv's "above the fixed" row.
 FIXED_STARTUP_GB = 0.335
 #: Columns of memory.csv (``make bench-profile MEMORY_CSV=...``).
-MEMORY_COLUMNS = ("case", "version", "kind", "item", "gb", "kb_per_dof", "kb_per_surface_node")
+MEMORY_COLUMNS = ("case", "version", "kind", "item", "gb", "kb_per_dof", "kb_per_surface_node",
+                  "physics")
 
 
 def memory_case_label(profile: dict) -> str:
-    """memory.csv's name of a profiled case, e.g. "G5 N=64 F*=0.155 2 ranks 32784 dofs"."""
+    """memory.csv's name of a profiled case, e.g. "G5 N=64 F*=0.155 2 ranks 32784 dofs" (with
+    the mesh's factor after N above level 0: "N=128 2x")."""
     case = profile["case"]
-    return (f"{case['surface']} N={case['n']} F*={case['load_star']:g} {case['ranks']} ranks "
+    level = case.get("level", 0)
+    mesh = f"N={case['n']}" + (f" {2**level}x" if level else "")
+    return (f"{case['surface']} {mesh} F*={case['load_star']:g} {case['ranks']} ranks "
             f"{profile['memory']['reduced_dofs']} dofs")
 
 
 def memory_column(profile: dict, version: str) -> list[dict]:
     """memory.csv's rows of one version from a ``bench profile`` result: the peak after each
     set-up phase [GB, kB per dof], each object [GB, kB per dof and per surface node], the peak
-    in all and above :data:`FIXED_STARTUP_GB`, and the run's mu_s, Newton and Krylov counts."""
+    in all and above :data:`FIXED_STARTUP_GB`, and the run's mu_s, Newton and Krylov counts;
+    each row with the profile's physics stamp ("" for a profile without one)."""
     memory, case = profile["memory"], memory_case_label(profile)
 
+    physics = profile.get("physics", "")
+
     def row(kind, item, gb="", per_dof="", per_node=""):
-        return dict(zip(MEMORY_COLUMNS, (case, version, kind, item, gb, per_dof, per_node),
-                        strict=True))
+        return dict(zip(MEMORY_COLUMNS, (case, version, kind, item, gb, per_dof, per_node,
+                                         physics), strict=True))
 
     rows = [row("peak after phase", phase, f"{value['peak_gb']:.4f}",
                 f"{value['peak_kb_per_dof']:.3f}") for phase, value in memory["phases"].items()]
@@ -363,11 +375,13 @@ def add_memory_column(path: Path, profile: dict, version: str) -> None:
     atomic_write(path, lambda temporary: write_csv(rows, Path(temporary), MEMORY_COLUMNS))
 
 
-def profile_case(surface: str, load: float, n: int, comm,
-                 directory: Path = BENCH_DIR) -> tuple[dict, Path]:
-    """Profile one figure case (:func:`studies.paper.fem_case`) on every rank of ``comm``
-    (:func:`studies.profile.profile_run`) and write the profile, with the case and its summary,
-    as ``directory/profile_<case_stem>.json`` (rank 0); return it and its path.
+def profile_case(surface: str, load: float, n: int, comm, directory: Path = BENCH_DIR,
+                 level: int = 0) -> tuple[dict, Path]:
+    """Profile one figure case (:func:`studies.paper.fem_case`) on level ``level`` of its
+    uniform ladder (a mesh 2^level times finer, :func:`studies.refinement.level_case`) on every
+    rank of ``comm`` (:func:`benchmarks.profile.profile_run`) and write the profile, with the
+    case, its summary and the physics stamp, as ``directory/profile_<case_stem>.json`` (rank
+    0); return it and its path.
 
     Raises
     ------
@@ -376,15 +390,23 @@ def profile_case(surface: str, load: float, n: int, comm,
     """
     from roughfriction.solver.run import stderr_progress
     from roughfriction.studies.paper import fem_case
-    from roughfriction.studies.profile import profile_run
+    from roughfriction.studies.physics import physics_version
+    from roughfriction.studies.refinement import level_case
+    from roughfriction.version import __version__
 
-    fem, profile = profile_run(fem_case(surface, load, n), comm, stderr_progress(comm))
+    from benchmarks.profile import profile_run
+
+    fem, profile = profile_run(level_case(fem_case(surface, load, n), level), comm,
+                               stderr_progress(comm))
     summary = fem.result.summary()
     fem.equilibrium.destroy()
-    profile |= {"case": {"surface": surface, "load_star": load, "n": n, "ranks": comm.size},
+    profile |= {"case": {"surface": surface, "load_star": load, "n": n, "ranks": comm.size,
+                         "level": level},
                 **{key: summary[key] for key in ("mu_s", "newton_iterations", "steps",
-                                                 "cut_steps", "converged")}}
-    path = Path(directory) / f"profile_{case_stem(surface, load, n, comm.size)}.json"
+                                                 "cut_steps", "converged")},
+                "version": __version__, "physics": physics_stamp(physics_version())}
+    stem = case_stem(surface, load, n, comm.size, level=level)
+    path = Path(directory) / f"profile_{stem}.json"
     if comm.rank == 0:
         atomic_write(path, lambda tmp: Path(tmp).write_text(json.dumps(profile, indent=1)))
     if not summary["converged"]:

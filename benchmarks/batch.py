@@ -1,4 +1,5 @@
-"""Batches of FEM runs for the benchmarks (:mod:`studies.convergence`, :mod:`studies.stress`).
+"""Batches of FEM runs for the benchmarks (:mod:`benchmarks.convergence`,
+:mod:`benchmarks.stress`).
 
 Every run goes through the run cache (:func:`studies.cache.cached_results`), one cache call per
 group of runs that differ only in the load (they share one normal loading path), the groups of
@@ -13,15 +14,12 @@ Imports without dolfinx; :func:`compute_batch` needs mpi4py and, for missing run
 
 from __future__ import annotations
 
-import csv
-import io
 from collections import Counter
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
 from roughfriction.case import FemCase
-from roughfriction.files import atomic_write
 from roughfriction.studies.cache import (
     RunsNotStarted,
     cached_results,
@@ -164,35 +162,25 @@ def summary_columns(run) -> dict:
     dict
         :data:`SUMMARY_COLUMNS` from the run's summary (None where absent), ``message``,
         ``note`` (:attr:`studies.post.RunFile.note`), ``wall_s`` (total wall time [s]),
-        ``peak_memory_gb`` (summed over ranks [GB]) and
-        ``ranks``.
+        ``peak_memory_gb`` (summed over ranks [GB]), ``ranks`` and ``physics`` (the stamp of
+        the physics that computed it, :func:`run_physics`).
     """
     if run is None:
         return {**dict.fromkeys(SUMMARY_COLUMNS), "converged": False, "message": "",
-                "note": "", "wall_s": None, "peak_memory_gb": None, "ranks": None}
+                "note": "", "wall_s": None, "peak_memory_gb": None, "ranks": None,
+                "physics": None}
     columns = {key: run.summary.get(key) for key in SUMMARY_COLUMNS}
     columns["converged"] = run.converged
     columns.update(message=run.message, note=run.note, wall_s=run.timings.get("total_s"),
-                   peak_memory_gb=run.sizes.get("peak_memory_gb"), ranks=run.sizes.get("ranks"))
+                   peak_memory_gb=run.sizes.get("peak_memory_gb"), ranks=run.sizes.get("ranks"),
+                   physics=run_physics(run.path))
     return columns
 
 
-def csv_text(rows: Sequence[dict], columns: Sequence[str]) -> str:
-    """Rows as CSV text: floats to 10 significant digits, None as an empty field, quoted
-    where needed (messages contain commas)."""
-    def cell(value):
-        if value is None:
-            return ""
-        return f"{value:.10g}" if isinstance(value, float) else value
+def run_physics(path: Path) -> str:
+    """The short physics version (``studies.physics.physics_stamp``) of the code that wrote the
+    results file at ``path`` ("" for a file older than the record)."""
+    from roughfriction.studies.physics import physics_stamp
+    from roughfriction.studies.results_file import stored_run
 
-    buffer = io.StringIO()
-    writer = csv.writer(buffer, lineterminator="\n")
-    writer.writerow(columns)
-    for row in rows:
-        writer.writerow([cell(row.get(column)) for column in columns])
-    return buffer.getvalue()
-
-
-def write_text(path: Path, text: str) -> None:
-    """Write a file atomically (temporary name, then rename)."""
-    atomic_write(Path(path), lambda temporary: Path(temporary).write_text(text))
+    return physics_stamp(stored_run(path).physics)

@@ -1,4 +1,4 @@
-"""Time the multi-scale theory over the cases of Figs. 22-28 (``roughfriction bench
+"""Time the multi-scale theory over the cases of Figs. 22-28 (``python -m benchmarks
 multiscale``): numbers written to ``results/bench/multiscale.csv``, not timed tests."""
 
 from __future__ import annotations
@@ -11,13 +11,15 @@ from roughfriction.geometry.generate import builtin_surface
 from roughfriction.material import Material
 from roughfriction.multiscale.friction import static_friction
 from roughfriction.multiscale.scales import scale_decomposition
-from roughfriction.studies.batch import BENCH_DIR, csv_text, write_text
 from roughfriction.studies.paper import (
     GAUSSIAN_SURFACES,
     LOAD_SWEEP,
     LOAD_SWEEP_SURFACES,
     PSI_SWEEP_LOADS,
 )
+from roughfriction.studies.tables import csv_text, write_text
+
+from benchmarks.batch import BENCH_DIR
 
 #: Columns of multiscale.csv (time per evaluation [ms], load iterations [-], mu_s [-]).
 COLUMNS = ("surface", "load_star", "time_ms", "iterations", "mu_s")
