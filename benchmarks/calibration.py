@@ -1,9 +1,9 @@
 """The certificate (``studies.certificate``) judged on the calibration set, and its factors fitted.
 
-    python -m roughfriction.studies.calibration docs/bench/calibration_ladders.csv \
+    python -m benchmarks.calibration docs/bench/calibration_ladders.csv \
         [docs/bench/calibration.csv]
 
-The set's ladders (``studies.calibration_set``: uniform levels 1x, 2x, 4x, 8x of 16^2
+The set's ladders (``benchmarks.calibration_set``: uniform levels 1x, 2x, 4x, 8x of 16^2
 windows) give per case (window and load) a reference: the finest level, mu_ref, with
 s_ref = |mu_ref - mu_(ref-1)| its last difference. A level L is judged when the reference is
 at least two levels finer (else s_ref is its own error). With the certificate's error e of
@@ -29,12 +29,7 @@ from pathlib import Path
 
 import numpy as np
 from roughfriction.files import atomic_write
-from roughfriction.studies.certificate import (  # noqa: F401  (coverage_statement: moving)
-    BOUNDARY_FACTOR,
-    LADDER_FACTOR,
-    certify,
-    coverage_statement,
-)
+from roughfriction.studies.certificate import BOUNDARY_FACTOR, LADDER_FACTOR, certify
 
 #: Share of the cases the certificate must cover [-].
 COVERAGE = 0.9
@@ -76,7 +71,7 @@ class Case:
 
 
 def read_cases(path: Path) -> list[Case]:
-    """The judged cases of a ladder table (``studies.calibration_set.COLUMNS``): every
+    """The judged cases of a ladder table (``benchmarks.calibration_set.COLUMNS``): every
     converged ladder's levels L <= reference - 2 (a ladder with an unconverged level is left
     out)."""
     with open(path, newline="") as file:

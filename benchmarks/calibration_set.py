@@ -1,10 +1,10 @@
 """The calibration set: uniform ladders 1x, 2x, 4x, 8x (16x where asked) of 16 x 16 windows,
 run resumably, one row per (window, load, level), stamped with the physics version.
 
-    mpirun -n 2 python -m roughfriction.studies.calibration_set docs/bench/calibration_ladders.csv
+    mpirun -n 2 python -m benchmarks.calibration_set docs/bench/calibration_ladders.csv
 
 The table holds measured values only (mu_s, areas, contact counts, cost); the error estimate
-under test is judged from it afterwards (``studies.calibration``), so an estimate can change
+under test is judged from it afterwards (``benchmarks.calibration``), so an estimate can change
 without re-running the set. Each window runs all its loads on one shared preload per level
 (``solver.run.run_loads``); rows are appended after every level (rank 0, atomically) and a
 window-level already in the table with today's physics is skipped, so a killed run resumes at

@@ -1,0 +1,39 @@
+"""The calibration set's runner (``benchmarks.calibration_set``): a small case end to end, and
+a resumed run that computes nothing twice."""
+
+import pytest
+
+from benchmarks import calibration, calibration_set
+
+pytestmark = pytest.mark.fem
+
+
+def test_a_small_case_runs_resumes_and_is_judged(tmp_path, monkeypatch):
+    """A 4 x 4 window of G5 at F* = 0.155 on uniform levels 1x-8x: one row per level with its
+    contact counts and physics; run again, nothing is computed; its 2x level is judged
+    against the 8x reference."""
+    from mpi4py import MPI
+    from roughfriction.studies.physics import physics_stamp, physics_version
+
+    path = tmp_path / "ladders.csv"
+    set_of_one = {"windows": (("G5", 1),), "n": 4, "loads": (0.155,)}
+    calibration_set.run_set(path, MPI.COMM_WORLD, levels=(0, 1, 2, 3), **set_of_one)
+    rows = calibration_set.read_rows(path)
+    assert [int(row["level"]) for row in rows] == [0, 1, 2, 3]
+    assert {row["physics"] for row in rows} == {physics_stamp(physics_version())}
+    nodes = [int(row["contact_nodes"]) for row in rows]
+    assert all(0 < int(row["boundary_nodes"]) <= node for row, node in zip(rows, nodes,
+                                                                           strict=True))
+    assert nodes == sorted(nodes)  # finer levels resolve the contact with more nodes
+
+    import roughfriction.solver.run as solver_run
+    monkeypatch.setattr(solver_run, "run_loads", lambda *a, **k: pytest.fail("recomputed"))
+    calibration_set.run_set(path, MPI.COMM_WORLD, levels=(0, 1, 2, 3), **set_of_one)
+    assert calibration_set.read_rows(path) == rows
+
+    (case,) = calibration.read_cases(path)
+    assert case.level == 1 and case.reference_factor == 8
+    assert case.mu_reference == pytest.approx(float(rows[3]["mu_s"]))
+    judged = calibration.judge(case, 0.15, 0.15)
+    assert judged["actual_error"] == pytest.approx(abs(float(rows[1]["mu_s"])
+                                                       - float(rows[3]["mu_s"])))
