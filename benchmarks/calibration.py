@@ -192,6 +192,9 @@ def main(argv: list[str] | None = None) -> int:
     output = Path(argv[1] if len(argv) > 1 else "docs/bench/calibration.csv")
     cases = read_cases(ladders)
     write_table(output, table_rows(cases))
+    if not cases:
+        print(f"{ladders}: no case has a reference two levels finer than its 2x level yet")
+        return 0
     used = verdict(cases, LADDER_FACTOR, BOUNDARY_FACTOR)
     print(f"{used.cases} cases; with C_d = {LADDER_FACTOR}, C_b = {BOUNDARY_FACTOR}: covered "
           f"{used.covered}, overconfident {used.overconfident}, median sharpness "
