@@ -24,9 +24,9 @@ from dataclasses import dataclass
 from pathlib import Path
 
 #: Share of the last change between levels the finest value may still carry [-].
-LADDER_FACTOR = 0.15
+LADDER_FACTOR = 0.8
 #: Uncertainty of a boundary node's share of the contact, in nodes [-].
-BOUNDARY_FACTOR = 0.15
+BOUNDARY_FACTOR = 0.25
 
 
 @dataclass(frozen=True)
@@ -82,7 +82,7 @@ CALIBRATION_TABLE = Path(__file__).resolve().parent.parent / "docs" / "bench" / 
 
 def coverage_statement(table: Path = CALIBRATION_TABLE) -> str:
     """One line on what the certificate is and how often it covered the reference on the
-    calibration set ``table`` (``studies.calibration``'s judged table); without the table,
+    calibration set ``table`` (``benchmarks.calibration``'s judged table); without the table,
     where to read it."""
     what = ("the error is certified from the last two levels' difference and the finest "
             "level's contact resolution (studies/certificate.py)")

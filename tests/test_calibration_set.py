@@ -2,6 +2,7 @@
 a resumed run that computes nothing twice."""
 
 import pytest
+from roughfriction.studies.certificate import BOUNDARY_FACTOR, LADDER_FACTOR
 
 from benchmarks import calibration, calibration_set
 
@@ -34,6 +35,6 @@ def test_a_small_case_runs_resumes_and_is_judged(tmp_path, monkeypatch):
     (case,) = calibration.read_cases(path)
     assert case.level == 1 and case.reference_factor == 8
     assert case.mu_reference == pytest.approx(float(rows[3]["mu_s"]))
-    judged = calibration.judge(case, 0.15, 0.15)
+    judged = calibration.judge(case, LADDER_FACTOR, BOUNDARY_FACTOR)
     assert judged["actual_error"] == pytest.approx(abs(float(rows[1]["mu_s"])
                                                        - float(rows[3]["mu_s"])))

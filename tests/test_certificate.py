@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 from roughfriction.solver.results import count_boundary_nodes
-from roughfriction.studies.certificate import Certificate, certify
+from roughfriction.studies.certificate import LADDER_FACTOR, Certificate, certify
 
 
 def test_boundary_nodes_are_contact_nodes_beside_a_free_node_on_the_periodic_grid():
@@ -38,4 +38,4 @@ def test_a_certificate_needs_two_levels_and_contact():
         certify((0.2,), 10, 5)
     assert math.isinf(certify((0.3, 0.2), 0, 0).error)
     assert isinstance(certify((0.3, 0.2, 0.21), 10, 5), Certificate)
-    assert certify((0.3, 0.2, 0.21), 10, 5).ladder_term == pytest.approx(0.15 * 0.01)
+    assert certify((0.3, 0.2, 0.21), 10, 5).ladder_term == pytest.approx(LADDER_FACTOR * 0.01)

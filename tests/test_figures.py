@@ -20,6 +20,7 @@ from roughfriction.scripts.figures import (
     read_table,
     write_table,
 )
+from roughfriction.studies.certificate import BOUNDARY_FACTOR
 from roughfriction.studies.paper import ERROR_BAR_LOADS, FEM_LOAD_SWEEP
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -209,7 +210,7 @@ def test_mu_vs_psi_error_bars_from_a_2x_finer_mesh():
     np.testing.assert_allclose(columns["mu_fem_error"][[0, 3]],
                                [certify((0.5, 0.6), 400, 100).error,
                                 certify((0.5, 0.5), 400, 100).error], rtol=1e-12)
-    assert columns["mu_fem_error"][3] == pytest.approx(0.15 * 0.5 * 10 / 400)  # C_b 0.15
+    assert columns["mu_fem_error"][3] == pytest.approx(BOUNDARY_FACTOR * 0.5 * 10 / 400)
     assert np.isnan(columns["mu_fem_error"][1:3]).all()
     assert list(columns["fem_refinement"]) == [2, 1, 2, *[2] * 6]
     np.testing.assert_array_equal(columns["mu_fem_coarse"][[0, 1]], [0.5, 0.5])
@@ -230,7 +231,8 @@ def test_mu_vs_load_columns():
     barred = np.isin(FEM_LOAD_SWEEP, ERROR_BAR_LOADS)
     assert len(cases) == len(FEM_LOAD_SWEEP) + barred.sum()
     assert list(columns["fem_refinement"][fem]) == list(np.where(barred, 2, 1))
-    np.testing.assert_allclose(columns["mu_fem_error"][fem][barred], 0.15 * 0.7 * 10 / 400)
+    np.testing.assert_allclose(columns["mu_fem_error"][fem][barred],
+                               BOUNDARY_FACTOR * 0.7 * 10 / 400)
     assert np.isnan(columns["mu_fem_error"][~fem]).all()
     let = columns["model"] == "let"
     assert all((columns["note"][let] == "") == (columns["load_star"][let] <= 0.3))
