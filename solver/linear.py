@@ -75,6 +75,34 @@ MAX_REUSED_ITERATIONS = 10
 FACTOR_MEMORY_SHARE = 0.8
 
 
+def default_options(method: str) -> dict:
+    """The PETSc options the solver sets under its prefix ``roughfriction_<method>_`` where the
+    user has not set them (``-roughfriction_iterative_pc_gamg_agg_nsmooths 1`` on the command
+    line wins)."""
+    options = {
+        # GMRES (set by _use) keeps GMRES_RESTART Krylov vectors and orthogonalises them once
+        # more where classical Gram-Schmidt loses orthogonality: on the exact tangent at
+        # sliding inception, strongly non-normal, it stalls with PETSc's default restart of 30
+        "ksp_gmres_restart": GMRES_RESTART,
+        "ksp_gmres_cgs_refinement_type": "refine_ifneeded",
+    }
+    if method == "iterative":
+        options |= {
+            "pc_gamg_reuse_interpolation": True,  # keep aggregates
+            # plain aggregation: sparser coarse operators, a cheaper cycle and set-up, and no
+            # more CG iterations at the Newton solves' loose tolerances (docs/benchmarks.md)
+            "pc_gamg_agg_nsmooths": GAMG_PROLONGATOR_SMOOTHINGS,
+            # Chebyshev smoothers on [0.2, 2.0] x the largest eigenvalue estimated in 30
+            # iterations: PETSc's default ([0.1, 1.1], 10) underestimates it on the coarsened
+            # blocks, and the smoother is then indefinite (CG: DIVERGED_INDEFINITE_PC) - on an
+            # elastic sinusoid at N = 32, and, with [0.2, 1.3], at first contact of rough
+            # surfaces on 2x refined meshes (docs/benchmarks.md)
+            "mg_levels_ksp_chebyshev_esteig": "0,0.2,0,2.0",
+            "mg_levels_esteig_ksp_max_it": 30,
+        }
+    return options
+
+
 class LinearSolver:
     """KSP for K x = b with the reduced tangent K.
 
@@ -97,23 +125,9 @@ class LinearSolver:
         self.ksp.setType("cg")
         self.ksp.setTolerances(rtol=relative_tolerance, atol=0.0, max_it=MAX_KRYLOV_ITERATIONS)
         prefix = f"roughfriction_{method}_"
-        if method == "iterative":
-            PETSc.Options()[f"{prefix}pc_gamg_reuse_interpolation"] = True  # keep aggregates
-            # plain aggregation: sparser coarse operators, a cheaper cycle and set-up, and no
-            # more CG iterations at the Newton solves' loose tolerances (docs/benchmarks.md)
-            PETSc.Options()[f"{prefix}pc_gamg_agg_nsmooths"] = GAMG_PROLONGATOR_SMOOTHINGS
-            # Chebyshev smoothers on [0.2, 2.0] x the largest eigenvalue estimated in 30
-            # iterations: PETSc's default ([0.1, 1.1], 10) underestimates it on the coarsened
-            # blocks, and the smoother is then indefinite (CG: DIVERGED_INDEFINITE_PC) - on an
-            # elastic sinusoid at N = 32, and, with [0.2, 1.3], at first contact of rough
-            # surfaces on 2x refined meshes (docs/benchmarks.md)
-            PETSc.Options()[f"{prefix}mg_levels_ksp_chebyshev_esteig"] = "0,0.2,0,2.0"
-            PETSc.Options()[f"{prefix}mg_levels_esteig_ksp_max_it"] = 30
-        # GMRES (set by _use) keeps GMRES_RESTART Krylov vectors and orthogonalises them once
-        # more where classical Gram-Schmidt loses orthogonality: on the exact tangent at sliding
-        # inception, strongly non-normal, it stalls with PETSc's default restart of 30
-        PETSc.Options()[f"{prefix}ksp_gmres_restart"] = GMRES_RESTART
-        PETSc.Options()[f"{prefix}ksp_gmres_cgs_refinement_type"] = "refine_ifneeded"
+        for name, value in default_options(method).items():
+            if not PETSc.Options().hasName(f"{prefix}{name}"):  # the user's options win
+                PETSc.Options()[f"{prefix}{name}"] = value
         self.ksp.setOptionsPrefix(prefix)
         self.ksp.setFromOptions()
         self.ksp.setNormType(PETSc.KSP.NormType.UNPRECONDITIONED)

@@ -374,3 +374,26 @@ def test_an_operator_given_as_a_sum_is_solved_and_factored_as_its_sum():
     assert factored.getType() != PETSc.Mat.Type.PYTHON
     solver.set_operator(operator, symmetric=False, preconditioning=symmetric_part)
     assert solver.ksp.getOperators()[1].handle == factored.handle
+
+
+def test_the_users_petsc_options_win_over_the_solvers_defaults():
+    """An option the user set under the solver's prefix (here GAMG's prolongator smoothings, 0
+    by default) is left as it is; the others get their defaults."""
+    from roughfriction.solver.linear import default_options
+
+    options = PETSc.Options()
+    name = "roughfriction_iterative_pc_gamg_agg_nsmooths"
+    restart = "roughfriction_iterative_ksp_gmres_restart"
+    saved = {key: options.getString(key) if options.hasName(key) else None
+             for key in (name, restart)}
+    try:
+        options[name] = 1
+        options.delValue(restart)
+        LinearSolver(MPI.COMM_SELF, "iterative")
+        assert options.getInt(name) == 1 != default_options("iterative")["pc_gamg_agg_nsmooths"]
+        assert options.getInt(restart) == default_options("iterative")["ksp_gmres_restart"]
+    finally:
+        for key, value in saved.items():
+            options.delValue(key)
+            if value is not None:
+                options[key] = value
