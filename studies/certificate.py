@@ -24,9 +24,9 @@ from dataclasses import dataclass
 from pathlib import Path
 
 #: Share of the last change between levels the finest value may still carry [-].
-LADDER_FACTOR = 0.8
+LADDER_FACTOR = 0.0709
 #: Uncertainty of a boundary node's share of the contact, in nodes [-].
-BOUNDARY_FACTOR = 0.25
+BOUNDARY_FACTOR = 0.7959
 
 
 @dataclass(frozen=True)
