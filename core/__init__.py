@@ -3,8 +3,8 @@
 The package's layers, each importing only those below it::
 
     roughfriction.scripts      command line and the paper's figures        (folder scripts/)
-    roughfriction.studies      run cache, batches, benchmarks, stress matrix,
-                               convergence study, reading results, the API  (folder studies/)
+    roughfriction.studies      run cache, error ladder, reading results,
+                               the API                                      (folder studies/)
     roughfriction.solver       the FEM of one case: mesh to mu_s (dolfinx)  (folder solver/)
     roughfriction.multiscale   the multi-scale theory, CKE and LET (NumPy)  (folder multiscale/)
     roughfriction.geometry     surfaces, statistics, the gmsh block         (folder geometry/)
@@ -20,9 +20,11 @@ from roughfriction.version import __version__  # noqa: F401  (re-exported)
 
 #: Names of :mod:`roughfriction.studies.api` offered as ``roughfriction.<name>``.
 API_NAMES = (
-    "Surface", "load_surface", "builtin_names", "gaussian_surface", "self_affine_surface",
+    "Surface", "load_surface", "ReaderOptions", "builtin_names", "gaussian_surface",
+    "self_affine_surface",
     "Material", "theory", "TheoryResult",
-    "FemCase", "MeshOptions", "SolverOptions", "fem_case", "meshed_surface", "run_fem",
+    "FemCase", "MeshOptions", "SolverOptions", "fem_case", "load_case", "meshed_surface",
+    "run_fem", "LadderLimits",
     "read_run", "RunFile",
     "InputError", "ConvergenceError",
 )

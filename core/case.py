@@ -110,7 +110,8 @@ class MeshOptions:
         Refine the surface zone only (``geometry.adaptive``); ``blend_layers`` then counts
         layers h thick of the surface's own grid (the blend zone is as deep at every level),
         ``fine_layers`` layers of the finest grid (h / 2^L thick), and the layers follow
-        ``geometry.adaptive.adaptive_layers``. None: the structured block of the surface's grid.
+        ``geometry.adaptive.adaptive_layers``. None: no refinement, level 0 (the surface's own
+        grid everywhere; ``geometry.adaptive.block_layout`` is where None becomes that layout).
     """
 
     blend_layers: int = 2

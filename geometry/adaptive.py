@@ -1,4 +1,7 @@
-"""The contact-adaptive block: the surface zone refined 2x per level where the contact needs it.
+"""The FEM block's layout: the surface zone refined 2x per level where the contact needs it.
+
+Every block is laid out here (:func:`block_layout`): level 0, without a zone, is the surface's
+own grid everywhere over the 2:1 coarsened layers of ``geometry.mesh.layer_layout``.
 
 Everything lives on the finest integer grid of a refinement level L: spacing h / 2^L, N = n 2^L
 cells per side of the period n h, node (i, j, k) at x = i h / 2^L, y = j h / 2^L on node layer k
@@ -27,8 +30,8 @@ Every level meshes the same continuous surface, the bilinear interpolant of the 
 each own-grid column, so every level meshes the same domain exactly and a hanging node lies on
 the coarse face it hangs on. Hanging nodes (lateral 2:1 interfaces inside a layer: edge
 midpoints; vertical ones between a coarse layer and the finer layer above: edge midpoints and
-face centres) are tied to the corners of the coarse face (:func:`hanging_masters`), the
-generalisation of ``geometry.mesh.interpolation_masters`` used by ``solver/periodic.py``.
+face centres) are tied to the corners of the coarse face (:func:`hanging_masters`, used by
+``solver/periodic.py``).
 """
 
 from __future__ import annotations
@@ -38,9 +41,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 from roughfriction.case import MeshOptions, ZoneRefinement
 from roughfriction.errors import InputError
-from roughfriction.geometry.mesh import (
-    layer_layout,
-)
+from roughfriction.geometry.mesh import BlockNodes, layer_layout
 from roughfriction.geometry.surface import bilinear_refine
 
 
@@ -63,11 +64,6 @@ class CellSizes:
     level: int
     layer_stride: np.ndarray
 
-    @classmethod
-    def uniform(cls, n: int, layer_stride: np.ndarray) -> CellSizes:
-        """Today's structured block: an n x n surface grid, cell layers ``layer_stride`` wide."""
-        return cls(np.zeros((n, n), dtype=np.int8), 0, np.asarray(layer_stride))
-
     @property
     def grid_size(self) -> int:
         """N, finest cells per side [-]."""
@@ -86,9 +82,11 @@ class CellSizes:
         return np.maximum(own, np.asarray(self.layer_stride)[layer])
 
     def layer_cells(self, layer: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Cells of one cell layer: first finest indices (i0, j0) and widths, each shape (m,)."""
-        n = self.grid_size
-        i, j = np.meshgrid(np.arange(n), np.arange(n), indexing="ij")
+        """Cells of one cell layer: first finest indices (i0, j0) and widths, each shape (m),
+        i0 first, then j0 (aligned squares no narrower than the layer's stride, so their first
+        cells lie on the stride's grid)."""
+        index = np.arange(0, self.grid_size, int(self.layer_stride[layer]))
+        i, j = np.meshgrid(index, index, indexing="ij")
         width = self.size(layer, i, j)
         first = (i % width == 0) & (j % width == 0)  # the corner cell of each aligned square
         return i[first], j[first], width[first]
@@ -273,9 +271,27 @@ def adaptive_layout(n: int, spacing: float, level: int, zone: np.ndarray,
     """
     if isinstance(level, bool) or int(level) != level or level < 0:
         raise InputError(f"refinement level must be an integer >= 0, got {level!r}")
+    return levels_layout(n, spacing, level, surface_levels(n, level, zone), options)
+
+
+def levels_layout(n: int, spacing: float, level: int, surface_level: np.ndarray,
+                  options: MeshOptions) -> AdaptiveLayout:
+    """The level-L block under an n x n surface whose surface cells have the levels
+    ``surface_level`` (``CellSizes.surface_level``), layered by :func:`adaptive_layers`."""
     layer_z, layer_stride = adaptive_layers(n, spacing, level, options)
-    cells = CellSizes(surface_levels(n, level, zone), level, layer_stride)
+    cells = CellSizes(surface_level, level, layer_stride)
     return AdaptiveLayout(n, spacing, cells, layer_z, options.blend_layers * spacing)
+
+
+def block_layout(n: int, spacing: float, options: MeshOptions) -> AdaptiveLayout:
+    """The layout of the block under an n x n surface of spacing h [m]: the zone and level of
+    ``options.refinement`` (:func:`adaptive_layout`), or without one level 0, the surface's own
+    grid everywhere (the 2:1 coarsened layers of ``geometry.mesh.layer_layout`` below it; its
+    surface levels a read-only view of one 0, so that the memory gate can size any N)."""
+    refinement = options.refinement
+    if refinement is None:
+        return levels_layout(n, spacing, 0, np.broadcast_to(np.int8(0), (n, n)), options)
+    return adaptive_layout(n, spacing, refinement.level, refinement.zone, options)
 
 
 def surface_levels(n: int, level: int, zone: np.ndarray) -> np.ndarray:
@@ -376,8 +392,8 @@ def overlapped_nodes(heights: np.ndarray, level: int, flat_height: float) -> np.
 
 def refinement_after(refinement: ZoneRefinement | None, contact: np.ndarray, margin: int,
                      near: np.ndarray | None = None) -> ZoneRefinement:
-    """The zone refinement one level finer than ``refinement`` (None: the structured block,
-    level 0): level L + 1 over the cells of level L's finest grid (h / 2^L) touching a node in
+    """The zone refinement one level finer than ``refinement`` (None: no refinement, level 0):
+    level L + 1 over the cells of level L's finest grid (h / 2^L) touching a node in
     ``contact`` (bool, that grid's shape), dilated by ``margin`` of those cells
     (:func:`cells_at_nodes`), and the cells touching a node in ``near`` (bool, optional)."""
     level = 0 if refinement is None else refinement.level
@@ -394,12 +410,20 @@ def _corners(i0: np.ndarray, j0: np.ndarray, width: np.ndarray) -> tuple[np.ndar
             j0[:, None] + width[:, None] * square[:, 1])
 
 
+def corner_keys(cells: CellSizes, layer: int) -> np.ndarray:
+    """Keys i (N + 1) + j of the 4 corners of each cell of one cell layer (``layer_cells``
+    order, corners counter-clockwise), shape (m, 4)."""
+    corner_i, corner_j = _corners(*cells.layer_cells(layer))
+    return corner_i * (cells.grid_size + 1) + corner_j
+
+
 def adaptive_block(cells: CellSizes) -> tuple[np.ndarray, np.ndarray]:
     """Nodes and hexahedra of a block with a quadtree per cell layer, in finest grid units.
 
     Node layer k holds the corners of the cells of cell layer k (the top one those of the top
     layer), which include those of the coarser layer below; periodic images (i = N or j = N)
-    are nodes of their own, as in ``geometry.mesh.structured_block``.
+    are nodes of their own (tied to their originals by ``solver/periodic.py``). Layers of one
+    stride have the same cells, which are laid out once.
 
     Returns
     -------
@@ -410,21 +434,27 @@ def adaptive_block(cells: CellSizes) -> tuple[np.ndarray, np.ndarray]:
         shape (num_cells, 8).
     """
     side = cells.grid_size + 1
-    layers = [cells.layer_cells(layer) for layer in range(cells.num_layers)]
-    node_keys, offsets = [], [0]
-    for k in range(cells.num_layers + 1):
-        ci, cj = _corners(*layers[min(k, cells.num_layers - 1)])
-        node_keys.append(np.unique(ci * side + cj))
-        offsets.append(offsets[-1] + len(node_keys[-1]))
-    grid = np.concatenate([np.column_stack([keys // side, keys % side, np.full(len(keys), k)])
-                           for k, keys in enumerate(node_keys)])
+    strides = [int(stride) for stride in cells.layer_stride]
+    keys = {}  # the corner keys of the cells of a layer, by stride
+    for layer, stride in enumerate(strides):
+        if stride not in keys:
+            keys[stride] = corner_keys(cells, layer)
+    nodes = {stride: np.unique(corners) for stride, corners in keys.items()}
+    node_strides = strides + strides[-1:]  # node layer k: the corners of cell layer k
+    offsets = np.cumsum([0] + [len(nodes[stride]) for stride in node_strides])
+    grid = np.concatenate([np.column_stack([nodes[stride] // side, nodes[stride] % side,
+                                            np.full(len(nodes[stride]), k)])
+                           for k, stride in enumerate(node_strides)])
+    number = {}  # a cell layer's corners numbered in a node layer, by the two strides
     hexahedra = []
-    for layer, squares in enumerate(layers):
-        ci, cj = _corners(*squares)
-        key = ci * side + cj
-        bottom = offsets[layer] + np.searchsorted(node_keys[layer], key)
-        top = offsets[layer + 1] + np.searchsorted(node_keys[layer + 1], key)
-        hexahedra.append(np.hstack([bottom, top]))
+    for layer, stride in enumerate(strides):
+        faces = []
+        for k in (layer, layer + 1):
+            pair = (stride, node_strides[k])
+            if pair not in number:
+                number[pair] = np.searchsorted(nodes[pair[1]], keys[stride])
+            faces.append(offsets[k] + number[pair])
+        hexahedra.append(np.hstack(faces))
     return grid, np.concatenate(hexahedra)
 
 
@@ -502,15 +532,12 @@ def node_coordinates(layout: AdaptiveLayout, grid: np.ndarray, heights: np.ndarr
                             flat_z + fade * surface[i % n, j % n]])
 
 
-def reduced_dofs(grid: np.ndarray, cells: CellSizes) -> int:
-    """Reduced dofs of a block: 3 per node above the bottom that is neither a periodic image
-    (i = N or j = N) nor hanging [-]."""
-    n = cells.grid_size
-    _, weights = hanging_masters(grid, cells)
-    own = (grid[:, 0] < n) & (grid[:, 1] < n) & (grid[:, 2] > 0) & (weights[:, 0] == 1.0)
-    return 3 * int(np.count_nonzero(own))
-
-
-def layout_dofs(layout: AdaptiveLayout) -> int:
-    """Reduced dofs of the adaptive block (:func:`reduced_dofs`) [-]."""
-    return reduced_dofs(adaptive_block(layout.cells)[0], layout.cells)
+def block_nodes(layout: AdaptiveLayout, heights: np.ndarray) -> BlockNodes:
+    """The whole block of ``layout`` on one process, its nodes on the bilinear surface of the
+    own-grid ``heights`` (n, n) [m] (:func:`node_coordinates`, the paper's moving-node method),
+    its cells x-major (contiguous ranges of cells are x-slabs of whole columns)."""
+    grid, hexahedra = adaptive_block(layout.cells)
+    i, j, k = grid[hexahedra[:, 0]].T  # each cell's first corner: unique, so a sort key
+    side = layout.grid_size + 1
+    hexahedra = hexahedra[np.argsort((i * side + j) * (layout.num_layers + 1) + k)]
+    return BlockNodes(layout, grid, node_coordinates(layout, grid, heights), hexahedra)

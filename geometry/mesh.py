@@ -1,6 +1,7 @@
-"""The FEM block under a rough surface: a pure-hexahedral mesh moved onto the height map.
+"""The FEM block under a rough surface: its layering, and the pure-hexahedral mesh as a gmsh
+model.
 
-Layout (z up, the mean plane of the surface at z = 0)::
+Layering (z up, the mean plane of the surface at z = 0; :func:`layer_layout`)::
 
     z = Z(x, y)      contact surface: N x N cells, (N + 1)^2 nodes, periodic closure
     ...              ``blend_layers`` layers of thickness h; the roughness fades linearly to 0
@@ -23,10 +24,10 @@ bilinear interpolation in the same reduction u = P u_red that imposes periodicit
 displacement of the coarse face. Below the surface zone the field varies on the scale of the
 depth, not of h, so this removes more than half of the dofs at N >= 64 (numbers in the README).
 
-gmsh holds the mesh: the structured layers and the 2:1 levels are numbered here in NumPy
-(:func:`structured_block`), moved onto the height map (:func:`block_nodes`, the paper's
-moving-node method) and put into a gmsh model as discrete entities (:func:`add_block_to_gmsh`:
-the nodes and hexahedra, and a physical group per side), which is written to a ``.msh`` file on
+The nodes and hexahedra of a block are numbered in NumPy by ``geometry.adaptive`` (its layout,
+of which the surface's own grid is level 0, moved onto the height map: the paper's moving-node
+method) and put here into a gmsh model as discrete entities (:func:`add_block_to_gmsh`: the
+nodes and hexahedra, and a physical group per side), which is written to a ``.msh`` file on
 request (:func:`geometry.mesh_file.write_msh`) and read by dolfinx through ``dolfinx.io.gmshio``
 (``solver/block.py``). gmsh's own meshers cannot make this block: its structured meshes
 (transfinite volumes, extrusion in layers) are conforming, one lateral resolution per volume,
@@ -69,7 +70,7 @@ COARSE_LAYERS_PER_LEVEL = 2
 
 @dataclass(frozen=True, eq=False)
 class Block:
-    """The meshed block and its structured indexing.
+    """The meshed block and its grid indexing.
 
     Attributes
     ----------
@@ -77,24 +78,42 @@ class Block:
         Hexahedral mesh [m], surface nodes already on the height map.
     grid_index : numpy.ndarray
         (i, j, k) of every local geometry node, shape (num_nodes, 3): x = i h, y = j h
-        (0 <= i, j <= n) and node layer k (0 at the bottom, ``num_layers`` at the surface).
-    layer_z : numpy.ndarray
-        Flat z of the node layers [m], bottom (-H) to top (0), shape (num_layers + 1,).
-    layer_stride : numpy.ndarray
-        Lateral size of the cells of each cell layer in grid spacings (1 at full resolution,
-        2, 4, ... in coarsened levels), bottom to top, shape (num_layers,).
-    n : int
-        Surface cells per side [-].
-    spacing : float
-        Grid spacing h [m].
+        (0 <= i, j <= n, h the finest spacing) and node layer k (0 at the bottom,
+        ``num_layers`` at the surface).
+    layout : geometry.adaptive.AdaptiveLayout
+        The block's layout: cell sizes of every layer and flat z of the node layers (built on
+        this module's layering, so held here untyped, as the dolfinx mesh is).
     """
 
     mesh: object
     grid_index: np.ndarray
-    layer_z: np.ndarray
-    layer_stride: np.ndarray
-    n: int
-    spacing: float
+    layout: object
+
+    @property
+    def cells(self):
+        """Lateral cell sizes of every cell layer (``geometry.adaptive.CellSizes``)."""
+        return self.layout.cells
+
+    @property
+    def n(self) -> int:
+        """Surface cells per side of the finest grid [-]."""
+        return self.layout.grid_size
+
+    @property
+    def spacing(self) -> float:
+        """Finest grid spacing h [m]."""
+        return self.layout.fine_spacing
+
+    @property
+    def layer_z(self) -> np.ndarray:
+        """Flat z of the node layers [m], bottom (-H) to top (0), shape (num_layers + 1,)."""
+        return self.layout.layer_z
+
+    @property
+    def layer_stride(self) -> np.ndarray:
+        """Smallest lateral size of the cells of each cell layer [finest spacings] (1 at full
+        resolution, 2, 4, ... in coarsened levels), bottom to top, shape (num_layers,)."""
+        return self.layout.cells.layer_stride
 
     @property
     def period(self) -> float:
@@ -154,99 +173,6 @@ def layer_layout(n: int, spacing: float, options: MeshOptions) -> tuple[np.ndarr
                 thicknesses[-1] -= excess
     layer_z = -np.concatenate([np.cumsum(thicknesses)[::-1], [0.0]])
     return layer_z, np.array(strides[::-1])
-
-
-def mesh_size(n: int, options: MeshOptions) -> tuple[int, int]:
-    """Hexahedra and reduced dofs (3 per node above the bottom that is neither a periodic image
-    nor hanging) of the block under an n x n surface, without building it."""
-    _, layer_stride = layer_layout(n, 1.0, options)
-    cells = int(sum((n // stride) ** 2 for stride in layer_stride))
-    return cells, int(3 * sum((n // stride) ** 2 for stride in layer_stride))
-
-
-def node_layer_stride(layer_stride: np.ndarray) -> np.ndarray:
-    """Lateral node spacing of each node layer [grid spacings], bottom to top: that of the cell
-    layer above it (the finer one), the top layer's for the surface."""
-    return np.append(layer_stride, layer_stride[-1])
-
-
-def interpolation_masters(grid: np.ndarray, layer_stride: np.ndarray
-                          ) -> tuple[np.ndarray, np.ndarray]:
-    """Where each node's displacement comes from: itself, or for a hanging node the corners of
-    the coarse face it lies on, bilinearly.
-
-    Parameters
-    ----------
-    grid : numpy.ndarray
-        (i, j, k) of nodes, shape (m, 3).
-    layer_stride : numpy.ndarray
-        Lateral cell size of each cell layer [grid spacings], bottom to top.
-
-    Returns
-    -------
-    masters : numpy.ndarray
-        (i, j, k) of up to 4 master nodes per node, shape (m, 4, 3) (unused slots repeat the
-        first master with weight 0).
-    weights : numpy.ndarray
-        Interpolation weights, shape (m, 4), summing to 1: (1, 0, 0, 0) for a node that is not
-        hanging, (1/2, 1/2, 0, 0) on a coarse edge, (1/4, ...) at a coarse face centre.
-    """
-    i, j, k = grid.T
-    below = np.append(1, layer_stride)[k]  # cell layer under node layer k (none under k = 0)
-    half = below // 2
-    off_i, off_j = (i % below != 0), (j % below != 0)
-    corners_i = np.stack([i - half * off_i, i + half * off_i], axis=1)
-    corners_j = np.stack([j - half * off_j, j + half * off_j], axis=1)
-    masters = np.stack([
-        np.column_stack([corners_i[:, a], corners_j[:, b], k]) for a in (0, 1) for b in (0, 1)
-    ], axis=1)
-    weight = np.where(off_i, 0.5, 1.0) * np.where(off_j, 0.5, 1.0)
-    # keep each distinct corner once: a node off in i only uses corners (0, 0) and (1, 0)
-    used = np.column_stack([np.ones_like(off_i), off_j, off_i, off_i & off_j])
-    return masters, np.where(used, weight[:, None], 0.0)
-
-
-def structured_block(n: int, layer_stride: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Nodes and hexahedra of the layered block, in grid units.
-
-    Parameters
-    ----------
-    n : int
-        Surface cells per side [-].
-    layer_stride : numpy.ndarray
-        Lateral cell size of each cell layer [grid spacings], bottom to top.
-
-    Returns
-    -------
-    grid : numpy.ndarray
-        (i, j, k) of every node, shape (num_nodes, 3).
-    hexahedra : numpy.ndarray
-        Node numbers of each cell in gmsh order (bottom face counter-clockwise, then top),
-        shape (num_cells, 8).
-    """
-    node_stride = node_layer_stride(layer_stride)
-    layers = []
-    for k, stride in enumerate(node_stride):
-        i, j = np.meshgrid(np.arange(0, n + 1, stride), np.arange(0, n + 1, stride), indexing="ij")
-        layers.append(np.column_stack([i.ravel(), j.ravel(), np.full(i.size, k)]))
-    grid = np.concatenate(layers)
-    number = np.full((len(node_stride), n + 1, n + 1), -1, dtype=np.int64)
-    number[grid[:, 2], grid[:, 0], grid[:, 1]] = np.arange(len(grid))
-
-    square = np.array([(0, 0), (1, 0), (1, 1), (0, 1)])  # counter-clockwise corners
-    hexahedra = []
-    for layer, stride in enumerate(layer_stride):
-        start = np.arange(0, n, stride)
-        i0, j0 = (a.ravel() for a in np.meshgrid(start, start, indexing="ij"))
-        ci, cj = i0[:, None] + stride * square[:, 0], j0[:, None] + stride * square[:, 1]
-        hexahedra.append(np.hstack([number[layer, ci, cj], number[layer + 1, ci, cj]]))
-    return grid, np.concatenate(hexahedra)
-
-
-def blend_weight(layer: np.ndarray, num_layers: int, blend_layers: int) -> np.ndarray:
-    """Fraction of the surface height applied to node layer ``layer`` [-]: 1 at the top, 0 at
-    and below ``blend_layers`` layers under it, linear in between."""
-    return np.clip(1.0 - (num_layers - layer) / blend_layers, 0.0, 1.0)
 
 
 def corner_jacobians(x: np.ndarray, cell_nodes: np.ndarray) -> np.ndarray:
@@ -309,55 +235,43 @@ class BlockNodes:
 
     Attributes
     ----------
+    layout : geometry.adaptive.AdaptiveLayout
+        The block's layout (untyped here, as in :class:`Block`).
     grid : numpy.ndarray
-        (i, j, k) of every node, shape (num_nodes, 3) (:func:`structured_block`'s numbering).
+        (i, j, k) of every node, shape (num_nodes, 3) (``geometry.adaptive.adaptive_block``'s
+        numbering, finest grid units).
     coordinates : numpy.ndarray
         Node coordinates [m], shape (num_nodes, 3): x = i h, y = j h, z = layer_z[k] plus the
-        blended surface height (:func:`blend_weight`).
+        blended surface height (``geometry.adaptive.node_coordinates``).
     hexahedra : numpy.ndarray
         Node numbers of each cell in gmsh order, shape (num_cells, 8), x-major: contiguous
         ranges of cells are x-slabs of whole columns.
-    layer_z, layer_stride : numpy.ndarray
-        As in :class:`Block`.
-    n : int
-        Surface cells per side [-].
-    spacing : float
-        Grid spacing h [m].
     """
 
+    layout: object
     grid: np.ndarray
     coordinates: np.ndarray
     hexahedra: np.ndarray
-    layer_z: np.ndarray
-    layer_stride: np.ndarray
-    n: int
-    spacing: float
 
+    @property
+    def n(self) -> int:
+        """Surface cells per side of the finest grid [-]."""
+        return self.layout.grid_size
 
-def block_nodes(heights: np.ndarray, spacing: float, options: MeshOptions) -> BlockNodes:
-    """The layered block under a height map, moved onto it (the paper's moving-node method).
+    @property
+    def spacing(self) -> float:
+        """Finest grid spacing h [m]."""
+        return self.layout.fine_spacing
 
-    Parameters
-    ----------
-    heights : numpy.ndarray
-        Surface heights [m], shape (N, N), ``heights[i, j]`` at x = i h, y = j h; node N
-        repeats node 0 (periodic closure). The mean is removed.
-    spacing : float
-        Grid spacing h [m].
-    options : MeshOptions
-        Layering.
-    """
-    heights = np.asarray(heights, dtype=float)
-    n = heights.shape[0]
-    layer_z, layer_stride = layer_layout(n, spacing, options)
-    grid, hexahedra = structured_block(n, layer_stride)
-    corner = grid[hexahedra[:, 0]]
-    hexahedra = hexahedra[np.lexsort((corner[:, 2], corner[:, 1], corner[:, 0]))]
-    coordinates = np.column_stack([grid[:, :2] * spacing, layer_z[grid[:, 2]]])
-    i, j, k = grid.T
-    surface_height = (heights - heights.mean())[i % n, j % n]
-    coordinates[:, 2] += blend_weight(k, len(layer_z) - 1, options.blend_layers) * surface_height
-    return BlockNodes(grid, coordinates, hexahedra, layer_z, layer_stride, n, spacing)
+    @property
+    def layer_z(self) -> np.ndarray:
+        """As in :class:`Block`."""
+        return self.layout.layer_z
+
+    @property
+    def layer_stride(self) -> np.ndarray:
+        """As in :class:`Block`."""
+        return self.layout.cells.layer_stride
 
 
 def boundary_quadrangles(nodes: BlockNodes) -> dict[Boundary, np.ndarray]:

@@ -15,12 +15,7 @@ import numpy as np
 from mpi4py import MPI
 from roughfriction.case import MeshOptions
 from roughfriction.errors import InputError
-from roughfriction.geometry.adaptive import (
-    AdaptiveLayout,
-    adaptive_block,
-    adaptive_layout,
-    node_coordinates,
-)
+from roughfriction.geometry.adaptive import AdaptiveLayout, block_layout, block_nodes
 from roughfriction.geometry.mesh import (
     GMSH_HEXAHEDRON,
     MIN_JACOBIAN_RATIO,
@@ -29,7 +24,6 @@ from roughfriction.geometry.mesh import (
     Boundary,
     add_block_to_gmsh,
     blend_layers_needed,
-    block_nodes,
     corner_jacobians,
     gmsh_model,
 )
@@ -47,15 +41,15 @@ def build_block(heights: np.ndarray, spacing: float, options: MeshOptions, comm)
     spacing : float
         Grid spacing h [m].
     options : MeshOptions
-        Layering; with ``options.refinement`` the contact-adaptive block
-        (``geometry.adaptive``) on the bilinear surface of the heights.
+        Layering and refinement: the block of ``geometry.adaptive.block_layout`` on the
+        bilinear surface of the heights.
     comm : mpi4py.MPI.Comm
         Communicator the mesh is distributed over.
 
     Returns
     -------
     Block
-        Grid index, ``n`` and ``spacing`` of the finest grid (h / 2^L) for an adaptive block.
+        Grid index, ``n`` and ``spacing`` of the finest grid (h / 2^L at refinement level L).
 
     Raises
     ------
@@ -65,58 +59,23 @@ def build_block(heights: np.ndarray, spacing: float, options: MeshOptions, comm)
     """
     heights = np.asarray(heights, dtype=float)
     layout = block_layout(heights.shape[0], spacing, options)  # a bad zone fails on every rank
-    nodes = None
-    if comm.rank == 0:
-        nodes = (block_nodes(heights, spacing, options) if layout is None
-                 else adaptive_block_nodes(heights, layout))
-    block = distributed_block(nodes, comm)
+    nodes = block_nodes(layout, heights) if comm.rank == 0 else None
+    block = distributed_block(nodes, layout, comm)
     check_jacobians(block, heights - heights.mean(), options.blend_layers, spacing)
     return block
 
 
-def block_layout(n: int, spacing: float, options: MeshOptions) -> AdaptiveLayout | None:
-    """The contact-adaptive layout of the block under an n x n surface of spacing h [m] when
-    ``options.refinement`` asks for one (``geometry.adaptive.adaptive_layout``), else None."""
-    refinement = options.refinement
-    if refinement is None:
-        return None
-    return adaptive_layout(n, spacing, refinement.level, refinement.zone, options)
-
-
-def mesh_nodes(heights: np.ndarray, spacing: float, options: MeshOptions) -> BlockNodes:
-    """The whole block on one process: the structured block (``geometry.mesh.block_nodes``)
-    or, with ``options.refinement``, the adaptive one (:func:`adaptive_block_nodes`)."""
-    layout = block_layout(np.shape(heights)[0], spacing, options)
-    if layout is None:
-        return block_nodes(heights, spacing, options)
-    return adaptive_block_nodes(heights, layout)
-
-
-def adaptive_block_nodes(heights: np.ndarray, layout: AdaptiveLayout) -> BlockNodes:
-    """The adaptive block on one process, its nodes on the bilinear surface of the own-grid
-    ``heights`` [m] (``geometry.adaptive.node_coordinates``), cells x-major as
-    ``geometry.mesh.block_nodes`` orders them; grid units and spacing those of the finest grid."""
-    grid, hexahedra = adaptive_block(layout.cells)
-    corner = grid[hexahedra[:, 0]]
-    hexahedra = hexahedra[np.lexsort((corner[:, 2], corner[:, 1], corner[:, 0]))]
-    return BlockNodes(grid, node_coordinates(layout, grid, heights), hexahedra, layout.layer_z,
-                      layout.cells.layer_stride, layout.grid_size, layout.fine_spacing)
-
-
-def distributed_block(nodes: BlockNodes | None, comm) -> Block:
-    """The block of ``nodes`` (given on rank 0, None elsewhere) through gmsh and gmshio,
-    distributed in x-slabs (:func:`slab_mesh`)."""
+def distributed_block(nodes: BlockNodes | None, layout: AdaptiveLayout, comm) -> Block:
+    """The block of ``layout`` from its ``nodes`` (given on rank 0, None elsewhere) through gmsh
+    and gmshio, distributed in x-slabs (:func:`slab_mesh`)."""
     coordinates, hexahedra = np.empty((0, 3)), np.empty((0, 8), dtype=np.int64)
     if comm.rank == 0:
         with gmsh_model() as gmsh:
             add_block_to_gmsh(gmsh, nodes)
             coordinates, hexahedra = gmsh_hexahedra(gmsh.model)
     mesh = slab_mesh(comm, coordinates, hexahedra)
-    layout = comm.bcast(nodes and (nodes.grid, nodes.layer_z, nodes.layer_stride, nodes.n,
-                                   nodes.spacing), root=0)
-    grid, layer_z, layer_stride, n, grid_spacing = layout
-    return Block(mesh, grid[mesh.geometry.input_global_indices], layer_z, layer_stride, n,
-                 grid_spacing)
+    grid = comm.bcast(nodes.grid if comm.rank == 0 else None, root=0)
+    return Block(mesh, grid[mesh.geometry.input_global_indices], layout)
 
 
 def write_block_msh(heights: np.ndarray, spacing: float, options: MeshOptions, path: str,
@@ -126,7 +85,8 @@ def write_block_msh(heights: np.ndarray, spacing: float, options: MeshOptions, p
     error = None
     if comm.rank == 0:
         try:
-            write_msh(mesh_nodes(heights, spacing, options), path)
+            layout = block_layout(np.shape(heights)[0], spacing, options)
+            write_msh(block_nodes(layout, heights), path)
         except InputError as refused:
             error = str(refused)
     error = comm.bcast(error, root=0)

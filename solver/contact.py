@@ -170,13 +170,11 @@ def local_faces(faces: SurfaceFaces, owner: np.ndarray, rank: int
     return local, owner[lowest] == rank
 
 
-def surface_faces(n: int, cells: CellSizes | None = None) -> SurfaceFaces:
-    """The top faces of a block of N x N finest cells: the uniform grid, or with ``cells`` the
-    top cell layer of an adaptive block (``geometry.adaptive``), hanging corners tied to their
-    coarse face's corners (``geometry.adaptive.hanging_masters``)."""
-    if cells is None:
-        cells = CellSizes.uniform(n, np.ones(1, dtype=np.int64))
-    top = cells.num_layers - 1
+def surface_faces(cells: CellSizes) -> SurfaceFaces:
+    """The top faces of a block of N x N finest cells: the top cell layer of ``cells``
+    (``geometry.adaptive``), hanging corners tied to their coarse face's corners
+    (``geometry.adaptive.hanging_masters``)."""
+    n, top = cells.grid_size, cells.num_layers - 1
     i0, j0, width = cells.layer_cells(top)
     corner_i = i0[:, None] + width[:, None] * CORNERS[:, 0]
     corner_j = j0[:, None] + width[:, None] * CORNERS[:, 1]
@@ -346,8 +344,9 @@ class RigidFlat:
         where a face corner does not hang), shape (m,).
     grid_index : numpy.ndarray
         (i, j) of those nodes, shape (m, 2).
-    grid_size : int
-        N [-].
+    cells : CellSizes
+        Cell sizes of the block (``geometry.adaptive``): the faces are its top cells on the
+        N x N finest grid, ``nodes`` its free (not hanging) surface nodes.
     heights : numpy.ndarray
         Surface heights Z [m] of the owned nodes, shape (m,).
     spacing : float
@@ -356,9 +355,6 @@ class RigidFlat:
         Pressure and friction at the points.
     points_per_side : int
         Gauss points per face side n [-].
-    cells : CellSizes, optional
-        Cell sizes of an adaptive block (``geometry.adaptive``): the faces are its top cells,
-        ``nodes`` its free (not hanging) surface nodes; default the uniform N x N faces.
 
     Attributes
     ----------
@@ -371,18 +367,17 @@ class RigidFlat:
         tangent; the residual keeps the law exactly). False by default.
     """
 
-    def __init__(self, comm, nodes: np.ndarray, grid_index: np.ndarray, grid_size: int,
-                 heights: np.ndarray, spacing: float, law: ContactLaw, points_per_side: int = 2,
-                 cells: CellSizes | None = None):
+    def __init__(self, comm, nodes: np.ndarray, grid_index: np.ndarray, cells: CellSizes,
+                 heights: np.ndarray, spacing: float, law: ContactLaw, points_per_side: int = 2):
         self.comm = comm
         self.nodes = nodes
-        self.grid_size = n = grid_size
+        self.grid_size = n = cells.grid_size
         self.spacing = spacing
         self.law = law
         self.symmetric_tangent = False  # see the class docstring
         self.owned_grid = grid_index[:, 0] * n + grid_index[:, 1]  # grid node of each owned node
         self._gathered_grid = np.concatenate(comm.allgather(self.owned_grid))
-        faces = surface_faces(n, cells)
+        faces = surface_faces(cells)
         needed = np.unique(faces.masters[faces.weights > 0.0])
         if not np.array_equal(np.sort(self._gathered_grid), needed):
             raise RuntimeError(f"surface nodes are not the {len(needed)} free nodes of the "

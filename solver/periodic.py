@@ -1,9 +1,9 @@
 """Lateral periodicity, hanging nodes and the fixed bottom by algebraic reduction: u = P u_red.
 
-P maps the reduced dofs to the full displacement dofs, built from the structured grid index of
-the nodes: x = L <-> x = 0, y = L <-> y = 0 and the corner edge x = y = L <-> x = y = 0 follow
-from i mod N, j mod N (entries 1); a hanging node of a coarsened level takes the bilinear
-interpolation of the coarse face's corners (entries 1/2 or 1/4, ``geometry.mesh``). Bottom
+P maps the reduced dofs to the full displacement dofs, built from the grid index of the nodes:
+x = L <-> x = 0, y = L <-> y = 0 and the corner edge x = y = L <-> x = y = 0 follow from
+i mod N, j mod N (entries 1); a hanging node takes the bilinear interpolation of the corners of
+the coarse face it lies on (entries 1/2 or 1/4, ``geometry.adaptive.hanging_masters``). Bottom
 nodes (u = 0) have no reduced dof: their rows of P are empty. The linear systems are
 P^T K P du_red = -P^T R (MatPtAP with the pattern reused), exact in serial and in parallel.
 
@@ -17,7 +17,7 @@ import numpy as np
 from dolfinx import la
 from mpi4py import MPI
 from petsc4py import PETSc
-from roughfriction.geometry.adaptive import CellSizes, hanging_masters
+from roughfriction.geometry.adaptive import hanging_masters
 from roughfriction.geometry.mesh import Block
 
 
@@ -43,10 +43,7 @@ class PeriodicReduction:
     V : dolfinx.fem.FunctionSpace
         Vector P1 space (block size 3) on the block.
     block : Block
-        The mesh with its structured grid index (finest grid units for an adaptive block).
-    cell_sizes : CellSizes, optional
-        Lateral cell sizes of every cell layer (``geometry.adaptive``); by default those of the
-        structured block, ``block.layer_stride`` wide everywhere.
+        The mesh with its grid index (finest grid units) and cell sizes.
 
     Attributes
     ----------
@@ -69,14 +66,12 @@ class PeriodicReduction:
         Local nodes of V that hang (tied to 2 or 4 masters), bool.
     """
 
-    def __init__(self, V, block: Block, cell_sizes: CellSizes | None = None):
+    def __init__(self, V, block: Block):
         comm = block.mesh.comm
         index_map = V.dofmap.index_map
         grid = dof_node_grid_index(V, block)
         n, num_owned = block.n, index_map.size_local
-        if cell_sizes is None:
-            cell_sizes = CellSizes.uniform(n, block.layer_stride)
-        masters, weights = hanging_masters(grid, cell_sizes)
+        masters, weights = hanging_masters(grid, block.cells)
         hanging = weights[:, 0] < 1.0
 
         # Masters: nodes with i < N, j < N above the bottom that are not hanging, numbered rank

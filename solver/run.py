@@ -14,11 +14,8 @@ from pathlib import Path
 import numpy as np
 from mpi4py import MPI
 from roughfriction.case import FemCase, Loading
-from roughfriction.geometry.adaptive import (
-    CellSizes,
-)
 from roughfriction.geometry.mesh import Block, blend_layers_needed
-from roughfriction.solver.block import block_layout, build_block
+from roughfriction.solver.block import build_block
 from roughfriction.solver.contact import ContactResponse, RigidFlat
 from roughfriction.solver.contact_law import ContactLaw
 from roughfriction.solver.equilibrium import Equilibrium
@@ -98,12 +95,12 @@ def with_blend_layers_needed(case: FemCase, progress) -> FemCase:
     return replace(case, mesh=replace(case.mesh, blend_layers=needed))
 
 
-def surface_contact(solid: Solid, block: Block, case: FemCase, reduction: PeriodicReduction,
-                    cells: CellSizes | None = None) -> RigidFlat:
-    """The rigid flat acting on the top faces of the block, with the free surface nodes whose
-    reduced dofs this rank owns (one per grid point: periodic images and hanging nodes have no
-    dofs of their own). ``cells``: the adaptive block's cell sizes (faces of varying width);
-    its penalty is set on the finest spacing h / 2^L, the faces' in the refined zone."""
+def surface_contact(solid: Solid, block: Block, case: FemCase, reduction: PeriodicReduction
+                    ) -> RigidFlat:
+    """The rigid flat acting on the top faces of the block (of varying width where the block
+    is refined), with the free surface nodes whose reduced dofs this rank owns (one per grid
+    point: periodic images and hanging nodes have no dofs of their own); its penalty is set on
+    the finest spacing h / 2^L, the faces' in the refined zone."""
     V = solid.V
     grid = dof_node_grid_index(V, block)
     masters = reduction.master_node
@@ -115,8 +112,8 @@ def surface_contact(solid: Solid, block: Block, case: FemCase, reduction: Period
                      tangential_penalty=case.solver.tangential_penalty * penalty,
                      shear_strength=material.tau_c,
                      ramp_pressure=case.solver.friction_ramp * material.Sy)
-    return RigidFlat(block.mesh.comm, on_surface, grid[on_surface, :2], block.n, heights,
-                     spacing, law, points_per_side=case.solver.contact_points, cells=cells)
+    return RigidFlat(block.mesh.comm, on_surface, grid[on_surface, :2], block.cells, heights,
+                     spacing, law, points_per_side=case.solver.contact_points)
 
 
 def contact_maps(flat: RigidFlat, contact: ContactResponse, phase: str) -> dict:
@@ -194,17 +191,16 @@ def run_loads(case: FemCase, loads: Sequence[float], comm: MPI.Comm = MPI.COMM_W
     started = time.perf_counter()
     case = with_blend_layers_needed(case, progress)
     surface = case.surface
-    layout = block_layout(surface.n, surface.spacing, case.mesh)
-    check_memory(surface.n, case.mesh, comm, layout)
+    check_memory(surface.n, case.mesh, comm, surface.spacing)
     block = build_block(surface.heights, surface.spacing, case.mesh, comm)
     solid = Solid(block.mesh, case.material, case.solver.elastic, case.solver.integration)
-    reduction = PeriodicReduction(solid.V, block, layout and layout.cells)
-    flat = surface_contact(solid, block, case, reduction, layout and layout.cells)
+    reduction = PeriodicReduction(solid.V, block)
+    flat = surface_contact(solid, block, case, reduction)
     equilibrium = Equilibrium(solid, reduction, flat, case.solver, block.spacing)
     sizes = {
         "cells": block.mesh.topology.index_map(3).size_global,
         "grid_size": block.n,
-        "refinement_level": layout.level if layout else 0,
+        "refinement_level": block.layout.level,
         "layers": block.num_layers,
         "blend_layers": case.mesh.blend_layers,
         "depth_m": block.depth,

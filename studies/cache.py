@@ -95,14 +95,14 @@ def finished_entry(directory: Path, case: FemCase, physics: str,
     default ``run_summary.summaries_directory()``); for a normal-only case, else those of the
     sliding run of the same case.
     """
-    from roughfriction.studies.run_summary import summary_path
+    from roughfriction.studies.run_summary import summary_file
 
     candidates = [case]
     if case.loading.normal_only:
         candidates.append(replace(case, loading=Loading(case.loading.load_star)))
     for candidate in candidates:
         for path in (entry_path(directory, candidate, physics),
-                     summary_path(candidate, physics, summaries)):
+                     summary_file(run_key(candidate, physics), summaries)):
             if path.is_file():
                 return path
     return None

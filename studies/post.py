@@ -99,6 +99,27 @@ def _plain(value):
     return value.item() if isinstance(value, np.generic) else value
 
 
+#: Layout version of a committed run summary (``studies.run_summary`` writes them).
+SUMMARY_FORMAT = 1
+
+
+def read_summary(path: Path) -> RunFile:
+    """A committed run summary (JSON, ``studies.run_summary``) as a :class:`RunFile` without
+    maps (``interference_m`` kept)."""
+    try:
+        record = json.loads(Path(path).read_text())
+    except (OSError, ValueError) as error:
+        raise InputError(f"cannot read run summary {path}: {error}") from None
+    if record.get("format") != SUMMARY_FORMAT:
+        raise InputError(f"{path} is not a run summary of format {SUMMARY_FORMAT}")
+    steps = {name: np.asarray(values) for name, values in record["steps"].items()}
+    steps["phase"] = steps["phase"].astype(str)
+    return RunFile(path=Path(path), inputs=record["inputs"], summary=record["summary"],
+                   converged=record["converged"], message=record["message"], steps=steps,
+                   maps={}, timings=record["timings"], sizes=record["sizes"],
+                   note=record["note"], interference_m=record["interference_m"])
+
+
 def read_run(path) -> RunFile:
     """Read a results file.
 
@@ -106,7 +127,7 @@ def read_run(path) -> RunFile:
     ----------
     path : str or pathlib.Path
         An HDF5 file written by :func:`studies.results_file.write_hdf5`, or a committed run
-        summary (``.json``, :func:`studies.run_summary.read_summary`).
+        summary (``.json``, :func:`read_summary`).
 
     Returns
     -------
@@ -124,8 +145,6 @@ def read_run(path) -> RunFile:
     if not path.is_file():
         raise InputError(f"no results file {path}")
     if path.suffix == ".json":
-        from roughfriction.studies.run_summary import read_summary
-
         return read_summary(path)
     if path.name.startswith(".") and path.name.endswith(".tmp"):
         raise InputError(f"{path} is the temporary file of an unfinished write, not a result")

@@ -3,19 +3,15 @@
 A run resolves its surface as the bilinear interpolant through the grid points; a mesh refined
 by a factor r samples that interpolant r times finer (``geometry.surface.bilinear_refine``), so
 every mesh of a ladder sees the same surface and the results differ by discretisation only.
-With results f_1, f_2 (, f_4) on meshes of spacing h, h/2 (, h/4):
+:func:`richardson` extrapolates results f_1, f_2 (, f_4) on meshes of spacing h, h/2 (, h/4)
+(two meshes at an assumed order p, three at the observed one): the tamaas peer and the
+convergence benchmarks use it. A ladder's finest value carries the certificate of
+``studies.certificate`` instead (:func:`ladder_certificate`): an estimate of the error of the
+value reported, from the last two levels and the finest level's contact resolution, calibrated
+on a set of uniform ladders (docs/verification.md).
 
-* two meshes: Richardson extrapolation at an assumed order p, f_inf = f_2 + (f_2 - f_1) /
-  (2^p - 1), and the error estimate of f_2 is |f_2 - f_1| / (2^p - 1);
-* three meshes: the observed order p = log2(|f_2 - f_1| / |f_4 - f_2|) and the same
-  extrapolation from the two finest.
-
-The estimate can be trusted in the asymptotic range, where the observed order is steady: with
-two meshes that is an assumption (p = 1 is the conservative choice for a contact area counted
-at points: its error is proportional to the contact perimeter times the spacing).
-
-:func:`run_ladder` adds levels (1x, 2x, 4x, ...) until the estimate of the finest value is
-within a relative tolerance, or a limit (level, memory, time) stops it. A level is either the
+:func:`run_ladder` adds levels (1x, 2x, 4x, ...) until the certified error of the finest value
+is within a relative tolerance, or a limit (level, memory, time) stops it. A level is either the
 uniform mesh 2^k times finer (:func:`level_case`) or, by default, the contact-adaptive
 refinement of the level before (:func:`adaptive_level_case`: its contact at the end of the
 preload and at inception, dilated by a margin, refined 2x); :func:`next_level` is the one place
@@ -36,15 +32,15 @@ from roughfriction.case import FemCase
 from roughfriction.errors import ConvergenceError, InputError
 from roughfriction.geometry.adaptive import (
     AdaptiveLayout,
-    adaptive_layout,
-    layout_dofs,
+    block_layout,
     refined_layering,
     refinement_after,
     surface_levels,
     zone_escaped,
 )
-from roughfriction.geometry.mesh import blend_layers_needed, mesh_size
+from roughfriction.geometry.mesh import blend_layers_needed
 from roughfriction.geometry.surface import Surface, bilinear_refine
+from roughfriction.studies.certificate import Certificate, certify
 
 #: Order assumed with two meshes [-].
 ASSUMED_ORDER = 1.0
@@ -94,29 +90,26 @@ def adaptive_level_case(case: FemCase, contact: np.ndarray, margin: int,
                                       refinement=zone))
 
 
-def level_layout(case: FemCase) -> AdaptiveLayout | None:
-    """The adaptive layout of a case with a ``ZoneRefinement``, else None."""
-    refinement, surface = case.mesh.refinement, case.surface
-    if refinement is None:
-        return None
-    return adaptive_layout(surface.n, surface.spacing, refinement.level, refinement.zone,
-                           case.mesh)
+def level_layout(case: FemCase) -> AdaptiveLayout:
+    """The layout of a case's block (``geometry.adaptive.block_layout``: its
+    ``ZoneRefinement``, or level 0)."""
+    surface = case.surface
+    return block_layout(surface.n, surface.spacing, case.mesh)
 
 
 def level_dofs(case: FemCase) -> int:
-    """Reduced dofs of a case's block, structured or adaptive [-]."""
-    layout = level_layout(case)
-    return mesh_size(case.surface.n, case.mesh)[1] if layout is None else layout_dofs(layout)
+    """Reduced dofs of a case's block (``solver.memory.block_size``) [-]."""
+    from roughfriction.solver.memory import block_size
+
+    return block_size(level_layout(case))[1]
 
 
 def level_memory_gb(case: FemCase, ranks: int) -> float:
-    """Estimated peak memory of a case's run on ``ranks`` ranks, structured or adaptive [GB]."""
-    from roughfriction.solver.memory import adaptive_memory_gb, structured_memory_gb
+    """Estimated peak memory of a case's run on ``ranks`` ranks
+    (``solver.memory.layout_memory_gb``) [GB]."""
+    from roughfriction.solver.memory import layout_memory_gb
 
-    layout = level_layout(case)
-    if layout is None:
-        return structured_memory_gb(case.surface.n, case.mesh, ranks)
-    return adaptive_memory_gb(layout, ranks)
+    return layout_memory_gb(level_layout(case), ranks)
 
 
 def contact_escaped(case: FemCase, contact: np.ndarray | None) -> bool:
@@ -274,7 +267,8 @@ class LevelRun:
     the level's results with the estimate), and on its finest grid (bool; an adaptive ladder
     needs the contact) the nodes in contact at the end of the preload or at inception
     (``solver.results.touched_nodes``) and those near the flat, where a finer mesh may touch
-    (``solver.run.near_flat``; optional)."""
+    (``solver.run.near_flat``; optional), and the run summary's ``contact_nodes`` and
+    ``boundary_nodes`` (the certificate's resolution term, ``studies.certificate``)."""
 
     value: float
     reduced_dofs: int
@@ -282,13 +276,16 @@ class LevelRun:
     save: Callable | None = None
     contact: np.ndarray | None = None
     near: np.ndarray | None = None
+    contact_nodes: int | None = None
+    boundary_nodes: int | None = None
 
 
 @dataclass(frozen=True)
 class Level:
     """One finished level: its number, refinement factor [-], quantity [-], reduced dofs and
-    hexahedra [-], wall time (mesh, preload and sliding) [s], and whether its contact reached
-    the edge of its refined zone (:func:`contact_escaped`)."""
+    hexahedra [-], wall time (mesh, preload and sliding) [s], whether its contact reached
+    the edge of its refined zone (:func:`contact_escaped`), and its contact nodes and their
+    boundary nodes at inception (else at the end of the preload) [-]."""
 
     level: int
     factor: int
@@ -297,6 +294,8 @@ class Level:
     cells: int
     wall_s: float
     zone_escaped: bool = False
+    contact_nodes: int | None = None
+    boundary_nodes: int | None = None
 
 
 @dataclass(frozen=True)
@@ -309,8 +308,9 @@ class Ladder:
         The quantity: ``mu_s``, or ``area_ratio_normal`` for normal-only runs.
     levels : tuple of Level
         Coarse to fine.
-    estimate : ErrorEstimate or None
-        From the last three levels where there are three, else the last two (None with one).
+    estimate : Certificate or None
+        The certificate of the finest value (:func:`ladder_certificate`; None with one level
+        or without the finest level's contact counts).
     limits : LadderLimits
         What it was allowed.
     stopped : str
@@ -319,7 +319,7 @@ class Ladder:
 
     key: str
     levels: tuple
-    estimate: ErrorEstimate | None
+    estimate: Certificate | None
     limits: LadderLimits
     stopped: str = ""
 
@@ -333,28 +333,24 @@ class Ladder:
         return tolerance is None or self.estimate.relative_error <= tolerance
 
     def summary(self) -> dict:
-        """The quantity of the finest level with its error (``<key>_error``,
-        ``<key>_extrapolated``, ``<key>_coarse``: the level before), the order used, the
+        """The quantity of the finest level with its certified error (``<key>_error``, and
+        relative), ``<key>_coarse`` (the level before), the certificate's two terms, the
         tolerance, the ladder ("adaptive" or "uniform") and the per-level columns
         (``levels``)."""
         key, estimate = self.key, self.estimate
         columns = {"factor": [], "reduced_dofs": [], "cells": [], key: [], "wall_s": [],
-                   "zone_escaped": []}
+                   "zone_escaped": [], "contact_nodes": [], "boundary_nodes": []}
         for level in self.levels:
-            for name, value in (("factor", level.factor), ("reduced_dofs", level.reduced_dofs),
-                                ("cells", level.cells), (key, level.value),
-                                ("wall_s", level.wall_s), ("zone_escaped", level.zone_escaped)):
-                columns[name].append(value)
+            for name in columns:
+                columns[name].append(level.value if name == key else getattr(level, name))
         values = columns[key]
         return {
             key: values[-1],
             f"{key}_error": estimate.error if estimate else None,
             f"{key}_error_relative": estimate.relative_error if estimate else None,
-            f"{key}_extrapolated": estimate.extrapolated if estimate else None,
             f"{key}_coarse": values[-2] if len(values) > 1 else None,
-            "error_order": estimate.order if estimate else None,
-            "error_order_observed": estimate.observed if estimate else False,
-            "error_levels_used": len(estimate.values) if estimate else 0,
+            "error_ladder_term": estimate.ladder_term if estimate else None,
+            "error_resolution_term": estimate.resolution_term if estimate else None,
             "error_tolerance": self.limits.tolerance,
             "error_tolerance_met": self.met,
             "error_stopped": self.stopped,
@@ -369,21 +365,25 @@ class Ladder:
         if self.estimate is None:
             best = f"{self.key} = {finest.value:.4g} with no error estimate (one level)"
         else:
-            kind = "observed" if self.estimate.observed else "assumed"
             best = (f"{self.key} = {finest.value:.4g} +- {self.estimate.error:.2g} "
-                    f"({100 * self.estimate.relative_error:.3g} %, {kind} order "
-                    f"{self.estimate.order:.3g}) at {finest.factor}x")
+                    f"({100 * self.estimate.relative_error:.3g} %, certified) at "
+                    f"{finest.factor}x")
         tolerance = self.limits.tolerance
         goal = (f"tolerance {100 * tolerance:.3g} % not met" if tolerance is not None
                 else "no error estimate")
         return f"{goal}: {best}; {self.stopped}"
 
 
-def ladder_estimate(values) -> ErrorEstimate | None:
-    """:func:`richardson` of the last three values where there are three, the last two where
-    there are two, None with fewer."""
-    values = list(values)
-    return richardson(values[-3:]) if len(values) >= 2 else None
+def ladder_certificate(levels) -> Certificate | None:
+    """The certificate (``studies.certificate.certify``) of the finest of ``levels`` (a
+    sequence of :class:`Level`), None with fewer than two levels or without the finest level's
+    contact counts."""
+    levels = list(levels)
+    finest = levels[-1] if levels else None
+    if len(levels) < 2 or finest.contact_nodes is None or finest.boundary_nodes is None:
+        return None
+    return certify([level.value for level in levels], finest.contact_nodes,
+                   finest.boundary_nodes)
 
 
 def level_refused(case: FemCase, last: Level, elapsed_s: float, limits: LadderLimits,
@@ -440,8 +440,9 @@ def run_ladder(case: FemCase, run_level: Callable[[int, FemCase], LevelRun],
         outcome = run_level(level, current)
         escaped = contact_escaped(current, outcome.contact)
         levels.append(Level(level, LADDER_RATIO**level, outcome.value, outcome.reduced_dofs,
-                            outcome.cells, clock() - mark, escaped))
-        estimate = ladder_estimate(v.value for v in levels)
+                            outcome.cells, clock() - mark, escaped, outcome.contact_nodes,
+                            outcome.boundary_nodes))
+        estimate = ladder_certificate(levels)
         ladder = Ladder(key, tuple(levels), estimate, limits)
         done = ladder.met if limits.tolerance is not None else level >= limits.max_level
         if not done:

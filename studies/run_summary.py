@@ -3,7 +3,8 @@ the preload's interference; no fields), so that figures redraw from a fresh clon
 
 A summary is named by its run's cache key (``studies.cache.run_key``: case, physics version,
 entry format), so the cache finds it like a results file and a physics change leaves it
-unfound; :func:`stale_summaries` names those of other physics for the same case.
+unfound; :func:`stale_summaries` names those of other physics for the same case. They are read
+back by ``studies.post.read_run`` (a ``.json`` path).
 
     roughfriction figure summaries --n 128    # every FEM figure's finished runs -> data/runs/
 """
@@ -15,11 +16,9 @@ import os
 from pathlib import Path
 
 import numpy as np
-from roughfriction.errors import InputError
 from roughfriction.files import atomic_write
+from roughfriction.studies.post import SUMMARY_FORMAT, interference
 
-#: Layout version of a summary file.
-SUMMARY_FORMAT = 1
 #: Where the committed summaries live (in the checkout), unless $ROUGHFRICTION_SUMMARIES says.
 SUMMARIES = Path(__file__).resolve().parent.parent / "data" / "runs"
 SUMMARIES_VARIABLE = "ROUGHFRICTION_SUMMARIES"
@@ -33,8 +32,6 @@ def summaries_directory(directory=None) -> Path:
 
 def summary_record(run, key: str, physics: str) -> dict:
     """The JSON record of a run read from its results file (``studies.post.RunFile``)."""
-    from roughfriction.studies.post import interference
-
     return {
         "format": SUMMARY_FORMAT, "key": key, "physics": physics, "inputs": run.inputs,
         "summary": run.summary, "converged": run.converged, "message": run.message,
@@ -55,30 +52,10 @@ def write_summary(directory: Path, record: dict) -> Path:
     return path
 
 
-def read_summary(path: Path):
-    """A summary file as a ``studies.post.RunFile`` without maps (``interference_m`` kept)."""
-    from roughfriction.studies.post import RunFile
-
-    try:
-        record = json.loads(Path(path).read_text())
-    except (OSError, ValueError) as error:
-        raise InputError(f"cannot read run summary {path}: {error}") from None
-    if record.get("format") != SUMMARY_FORMAT:
-        raise InputError(f"{path} is not a run summary of format {SUMMARY_FORMAT}")
-    steps = {name: np.asarray(values) for name, values in record["steps"].items()}
-    steps["phase"] = steps["phase"].astype(str)
-    return RunFile(path=Path(path), inputs=record["inputs"], summary=record["summary"],
-                   converged=record["converged"], message=record["message"], steps=steps,
-                   maps={}, timings=record["timings"], sizes=record["sizes"],
-                   note=record["note"], interference_m=record["interference_m"])
-
-
-def summary_path(case, physics: str, directory=None) -> Path:
-    """Where the committed summary of ``case`` under ``physics`` would be
-    (:func:`summaries_directory`)."""
-    from roughfriction.studies.cache import run_key
-
-    return summaries_directory(directory) / f"{run_key(case, physics)}.json"
+def summary_file(key: str, directory=None) -> Path:
+    """Where the committed summary of the run with cache key ``key`` (``studies.cache.run_key``)
+    would be (:func:`summaries_directory`)."""
+    return summaries_directory(directory) / f"{key}.json"
 
 
 def stale_summaries(cases, physics: str, directory=None) -> int:

@@ -1,21 +1,24 @@
-"""The contact-adaptive block: quadtree layers, 2:1 balance, hanging-node masters, blend depth."""
+"""The block layout (geometry.adaptive): level 0 and the contact-adaptive levels, quadtree
+layers, 2:1 balance, hanging-node masters, blend depth."""
+
+from dataclasses import replace
 
 import numpy as np
 import pytest
-from roughfriction.case import MeshOptions
+from roughfriction.case import MeshOptions, ZoneRefinement
 from roughfriction.errors import InputError
 from roughfriction.geometry.adaptive import (
     CellSizes,
     adaptive_block,
     adaptive_layout,
     balanced_levels,
+    block_layout,
     cells_at_nodes,
     dilate,
     hanging_masters,
     interpolated_in_cells,
     node_coordinates,
     overlapped_nodes,
-    reduced_dofs,
     surface_levels,
     uncovered_nodes,
     zone_escaped,
@@ -23,12 +26,8 @@ from roughfriction.geometry.adaptive import (
 from roughfriction.geometry.mesh import (
     MIN_JACOBIAN_RATIO,
     blend_layers_needed,
-    blend_weight,
     corner_jacobians,
-    interpolation_masters,
     layer_layout,
-    mesh_size,
-    structured_block,
 )
 from roughfriction.geometry.surface import bilinear_refine
 
@@ -53,27 +52,77 @@ LAYERINGS = [MeshOptions(), MeshOptions(blend_layers=3, fine_layers=1), MeshOpti
              MeshOptions(coarsen=False, growth=2.0)]
 
 
+def reduced_dofs(grid, cells):
+    """Reduced dofs of a built block: 3 per node above the bottom that is neither a periodic
+    image (i = N or j = N) nor hanging (``hanging_masters``) [-]."""
+    n = cells.grid_size
+    _, weights = hanging_masters(grid, cells)
+    own = (grid[:, 0] < n) & (grid[:, 1] < n) & (grid[:, 2] > 0) & (weights[:, 0] == 1.0)
+    return 3 * int(np.count_nonzero(own))
+
+
+def level_0(n, layer_stride):
+    """The cell sizes of an unrefined n x n surface, cell layers ``layer_stride`` wide."""
+    return CellSizes(np.zeros((n, n), dtype=np.int8), 0, np.asarray(layer_stride))
+
+
 @pytest.mark.parametrize("options", LAYERINGS)
-def test_level_0_is_today_s_block(options):
+def test_without_refinement_the_block_is_level_0_of_the_own_grid(options):
+    """``block_layout``: no zone is level 0, the own grid over ``layer_layout``'s layers; a
+    ``ZoneRefinement`` is its adaptive layout."""
     n = 8
-    layout = adaptive_layout(n, SPACING, 0, patches(n), options)
+    layout = block_layout(n, SPACING, options)
     layer_z, layer_stride = layer_layout(n, SPACING, options)
+    assert layout.level == 0 and layout.grid_size == n and layout.fine_spacing == SPACING
+    assert not layout.cells.surface_level.any()
     np.testing.assert_allclose(layout.layer_z, layer_z, rtol=0, atol=1e-18)
     np.testing.assert_array_equal(layout.cells.layer_stride, layer_stride)
     grid, hexahedra = adaptive_block(layout.cells)
-    assert as_sets(grid, hexahedra) == as_sets(*structured_block(n, layer_stride))
-    assert reduced_dofs(grid, layout.cells) == mesh_size(n, options)[1]
+    # node layer k >= 1 holds its own dofs at the stride of the cell layer under it
+    assert len(hexahedra) == sum((n // s) ** 2 for s in layer_stride)
+    assert reduced_dofs(grid, layout.cells) == 3 * sum((n // s) ** 2 for s in layer_stride)
+    zone = patches(n)
+    refined = block_layout(n, SPACING, replace(options, refinement=ZoneRefinement(2, zone)))
+    expected = adaptive_layout(n, SPACING, 2, zone, options)
+    np.testing.assert_array_equal(refined.cells.surface_level, expected.cells.surface_level)
+    np.testing.assert_array_equal(refined.layer_z, expected.layer_z)
+
+
+def test_level_0_cells_use_only_existing_nodes_and_cover_the_block():
+    n, stride = 8, np.array([4, 2, 2, 1])
+    grid, hexahedra = adaptive_block(level_0(n, stride))
+    assert len(hexahedra) == sum((n // s) ** 2 for s in stride)
+    assert len(np.unique(grid, axis=0)) == len(grid)
+    corners = grid[hexahedra]  # (cells, 8, 3), gmsh order: bottom face then top face
+    assert np.all(corners[:, :4, 2] + 1 == corners[:, 4:, 2])
+    width = corners[:, 2, 0] - corners[:, 0, 0]
+    assert np.array_equal(width, stride[corners[:, 0, 2]])
+
+
+def test_hanging_nodes_interpolate_the_corners_of_the_coarse_face():
+    # cell layer 0 coarse, 1 fine: node layer 1 is the interface
+    cells = level_0(4, [2, 1])
+    grid = np.array([[2, 4, 1], [1, 4, 1], [2, 3, 1], [1, 3, 1], [1, 3, 2], [2, 2, 0]])
+    masters, weights = hanging_masters(grid, cells)
+    np.testing.assert_allclose(weights.sum(axis=1), 1.0)
+    expected = [{(2, 4, 1): 1.0}, {(0, 4, 1): 0.5, (2, 4, 1): 0.5},
+                {(2, 2, 1): 0.5, (2, 4, 1): 0.5},
+                {(0, 2, 1): 0.25, (0, 4, 1): 0.25, (2, 2, 1): 0.25, (2, 4, 1): 0.25},
+                {(1, 3, 2): 1.0}, {(2, 2, 0): 1.0}]
+    for node, weights_of in enumerate(expected):
+        found = {tuple(m): w for m, w in zip(masters[node], weights[node], strict=True) if w}
+        assert found == weights_of
 
 
 @pytest.mark.parametrize("level", [1, 2, 3])
 @pytest.mark.parametrize("options", LAYERINGS)
-def test_an_all_zone_mask_gives_the_structured_block_of_its_layers(level, options):
+def test_an_all_zone_mask_gives_the_level_0_block_of_its_layers(level, options):
     n = 4
     layout = adaptive_layout(n, SPACING, level, np.ones((n, n), bool), options)
     big_n = n * 2**level
     grid, hexahedra = adaptive_block(layout.cells)
-    structured = structured_block(big_n, layout.cells.layer_stride)
-    assert as_sets(grid, hexahedra) == as_sets(*structured)
+    assert as_sets(grid, hexahedra) == as_sets(*adaptive_block(
+        level_0(big_n, layout.cells.layer_stride)))
     # node layer k >= 1 holds its own dofs at the stride of the cell layer under it
     assert reduced_dofs(grid, layout.cells) == 3 * sum((big_n // s) ** 2
                                                        for s in layout.cells.layer_stride)
@@ -86,26 +135,30 @@ def test_an_all_zone_mask_gives_the_structured_block_of_its_layers(level, option
 
 @pytest.mark.parametrize("level", [1, 2])
 @pytest.mark.parametrize("options", LAYERINGS)
-def test_an_all_zone_mask_gives_today_s_block_of_the_re_gridded_surface(level, options):
-    """The adaptive block refined everywhere is today's block of the 2^L re-gridded bilinear
-    surface with a blend zone as deep in metres (2^L times the layers)."""
+def test_an_all_zone_mask_gives_the_level_0_block_of_the_re_gridded_surface(level, options):
+    """The adaptive block refined everywhere is the level-0 block of the 2^L re-gridded
+    bilinear surface with a blend zone as deep in metres (2^L times the layers): the adaptive
+    and the uniform ladder mesh the same block."""
     n, factor = 4, 2**level
     heights = rough(n, 0.2 * SPACING, seed=8)
     layout = adaptive_layout(n, SPACING, level, np.ones((n, n), bool), options)
     blend = factor * options.blend_layers
-    today = MeshOptions(fine_layers=options.fine_layers, blend_layers=blend,
-                        coarsen=options.coarsen, growth=options.growth, depth=options.depth)
-    layer_z, layer_stride = layer_layout(factor * n, SPACING / factor, today)
+    uniform = MeshOptions(fine_layers=options.fine_layers, blend_layers=blend,
+                          coarsen=options.coarsen, growth=options.growth, depth=options.depth)
+    layer_z, layer_stride = layer_layout(factor * n, SPACING / factor, uniform)
     np.testing.assert_allclose(layout.layer_z, layer_z, rtol=0, atol=1e-18)
     np.testing.assert_array_equal(layout.cells.layer_stride, layer_stride)
     grid, hexahedra = adaptive_block(layout.cells)
-    assert as_sets(grid, hexahedra) == as_sets(*structured_block(factor * n, layer_stride))
+    fine_layout = block_layout(factor * n, SPACING / factor, uniform)
+    assert as_sets(grid, hexahedra) == as_sets(*adaptive_block(fine_layout.cells))
     fine = bilinear_refine(heights, factor)
     fine -= fine.mean()
     i, j, k = grid.T
-    expected_z = layer_z[k] + blend_weight(k, len(layer_stride), blend) * fine[i % (factor * n),
-                                                                             j % (factor * n)]
+    blend_weight = np.clip(1.0 - (len(layer_stride) - k) / blend, 0.0, 1.0)
+    expected_z = layer_z[k] + blend_weight * fine[i % (factor * n), j % (factor * n)]
     np.testing.assert_allclose(node_coordinates(layout, grid, heights)[:, 2], expected_z,
+                               rtol=0, atol=1e-18)
+    np.testing.assert_allclose(node_coordinates(fine_layout, grid, fine)[:, 2], expected_z,
                                rtol=0, atol=1e-18)
 
 
@@ -214,18 +267,6 @@ def test_the_field_is_continuous_across_every_2_to_1_interface(level):
     assert checked > 0  # some faces carry hanging nodes
 
 
-def test_today_s_coarsened_block_gets_today_s_masters():
-    n, stride = 8, np.array([4, 4, 2, 2, 1, 1])
-    grid, _ = structured_block(n, stride)
-    masters, weights = hanging_masters(grid, CellSizes.uniform(n, stride))
-    old_masters, old_weights = interpolation_masters(grid, stride)
-    for node in range(len(grid)):
-        new = {tuple(m): w for m, w in zip(masters[node], weights[node], strict=True) if w}
-        old = {tuple(m): w for m, w in zip(old_masters[node], old_weights[node], strict=True)
-               if w}
-        assert new == old
-
-
 def rough(n, rms, seed=0):
     return np.random.default_rng(seed).normal(0.0, rms, (n, n))
 
@@ -311,7 +352,9 @@ def test_a_small_zone_costs_a_fraction_of_the_uniform_dofs():
     for name, mask in {"adaptive": zone, "uniform": np.ones((n, n), bool)}.items():
         layout = adaptive_layout(n, SPACING, level, mask, MeshOptions())
         dofs[name] = reduced_dofs(adaptive_block(layout.cells)[0], layout.cells)
-    assert mesh_size(n, MeshOptions())[1] < dofs["adaptive"] < 0.6 * dofs["uniform"]
+    unrefined = block_layout(n, SPACING, MeshOptions()).cells
+    assert reduced_dofs(adaptive_block(unrefined)[0], unrefined) < dofs["adaptive"]
+    assert dofs["adaptive"] < 0.6 * dofs["uniform"]
 
 
 def uniaxial_strain_error():
@@ -323,9 +366,9 @@ def uniaxial_strain_error():
     from dolfinx.fem import petsc as fem_petsc
     from mpi4py import MPI
     from petsc4py import PETSc
-    from roughfriction.case import ZoneRefinement
     from roughfriction.geometry.mesh import Boundary
     from roughfriction.solver.block import boundary_facet_tags, build_block
+    from roughfriction.solver.memory import block_size
     from roughfriction.solver.periodic import PeriodicReduction
 
     n = 4
@@ -334,9 +377,11 @@ def uniaxial_strain_error():
     layout = adaptive_layout(n, SPACING, 2, zone, options)
     block = build_block(np.zeros((n, n)), SPACING, options, MPI.COMM_WORLD)
     V = fem.VectorFunctionSpace(block.mesh, ("Lagrange", 1))
-    reduction = PeriodicReduction(V, block, layout.cells)
+    reduction = PeriodicReduction(V, block)
     assert 3 * reduction.num_reduced_global == reduced_dofs(adaptive_block(layout.cells)[0],
                                                             layout.cells)
+    assert block_size(layout) == (block.mesh.topology.index_map(3).size_global,
+                                  3 * reduction.num_reduced_global)
     young, poisson, pressure = 200e9, 0.3, 1e8  # [Pa], [-], [Pa]
     mu, lame = young / (2 * (1 + poisson)), young * poisson / ((1 + poisson) * (1 - 2 * poisson))
     u, v = ufl.TrialFunction(V), ufl.TestFunction(V)

@@ -9,7 +9,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 import roughfriction as rf
-from roughfriction.studies import api
+from roughfriction.studies import api, fem_input
+from roughfriction.studies.certificate import certify
 
 DOCS = Path(__file__).resolve().parents[1] / "docs" / "api.md"
 HEAVY = ("dolfinx", "mpi4py", "petsc4py", "gmsh", "ufl")
@@ -52,7 +53,7 @@ def test_fem_case_checks_the_load_before_re_gridding(monkeypatch):
     def re_grid(*args):
         raise AssertionError("re-gridded before the load was checked")
 
-    monkeypatch.setattr(api, "surface_on_fem_grid", re_grid)
+    monkeypatch.setattr(fem_input, "surface_on_fem_grid", re_grid)
     with pytest.raises(rf.InputError, match=r"normal load F\* = 1e\+09 > 100"):
         rf.fem_case(rf.load_surface("G5"), 1e9, n=16)
 
@@ -81,11 +82,11 @@ def test_an_n_above_the_surface_points_is_noted_like_a_re_grid():
 
 
 @pytest.mark.parametrize("window, n, message", [
-    (0, 16, "window takes 'best' or a window number 1, 2, ..., got 0"),
+    (0, 16, "window counts from 1, got 0"),
     ("first", 16, "got 'first'"),
     (True, 16, "got True"),
     (65, 16, "has 64 windows of 16 x 16 points, not 65"),
-    ("best", None, "a window needs n below the surface's 128 points"),
+    ("best", None, "window needs n below the surface's 128 points"),
     ("best", 3, "integer >= 4"),
 ])
 def test_bad_windows_are_refused_in_one_line(window, n, message):
@@ -95,7 +96,7 @@ def test_bad_windows_are_refused_in_one_line(window, n, message):
 
 @pytest.mark.fem
 @pytest.mark.parametrize("where, message", [
-    ("exists.h5", "exists; pass overwrite=True"),
+    ("exists.h5", "exists and is not a results file: pass overwrite=True"),
     ("a_file/run.h5", "cannot write"),
     (".", "is a directory"),
 ])
@@ -123,6 +124,177 @@ def test_an_unconverged_run_is_written_then_raised(tmp_path):
     assert not run.converged and run.summary["mu_s"] is None
 
 
+# --- case files: the command's --config, through the API ------------------------------------
+
+CASE_FILE = ('load = 0.3\nn = 16\nnormal_only = true\n[mesh]\nblend_layers = 3\n'
+             '[solver]\npenalty = 20.0\n[material]\nE = "210GPa"\nSy = "800MPa"\n')
+
+
+def command_line(**given):
+    """The parsed flags of ``roughfriction fem G5`` that building a case reads, unset unless
+    given."""
+    from types import SimpleNamespace
+
+    names = ("config", "load", "n", "window", "elastic", "normal_only")
+    return SimpleNamespace(surface="G5", **{name: given.get(name) for name in names})
+
+
+def test_a_case_file_through_the_api_is_the_case_the_command_builds(tmp_path):
+    """load_case(path, surface, **overrides) == the case of fem G5 --config path --flags."""
+    from roughfriction.scripts.fem import case_from_args
+
+    path = tmp_path / "case.toml"
+    path.write_text(CASE_FILE)
+    g5 = rf.load_surface("G5")
+    through_api = rf.load_case(path, g5, window=2, elastic=True)
+    through_cli = case_from_args(command_line(config=str(path), window="2", elastic=True), g5)
+    assert through_api.inputs() == through_cli.inputs()
+    np.testing.assert_array_equal(through_api.surface.heights, g5.heights[:16, 16:32])
+    assert (through_api.material.E, through_api.material.Sy) == (210e9, 800e6)
+    assert through_api.mesh.blend_layers == 3 and through_api.solver.penalty == 20.0
+    assert through_api.solver.elastic and through_api.loading.normal_only
+    assert through_api.loading.load_star == 0.3
+    heavier = rf.load_case(path, g5, load=0.62, n=8, window="best")
+    as_flags = case_from_args(command_line(config=str(path), load=0.62, n=8, window="best"), g5)
+    assert heavier.inputs() == as_flags.inputs()
+    assert (heavier.loading.load_star, heavier.surface.n) == (0.62, 8)
+
+
+@pytest.mark.parametrize("text, message", [
+    ("load = 0.3\n[solver]\npenalti = 3\n", "unknown keys in "),
+    ("load = 0.3\n[material]\nE = 210\n", "E = 210 Pa is not a metal's"),
+    ("load = 0.3\n[material]\nSy = \"800 MPascal\"\n", "give a number in Pa"),
+    ("n = 16\n", "the normal load is required: load=F* (or load = ... in the case file)"),
+    ("load = [0.3\n", "cannot read case file"),
+    ("load = 1e9\n", "normal load F* = 1e+09 > 100"),
+])
+def test_a_bad_case_file_is_refused_in_one_line(text, message, tmp_path):
+    path = tmp_path / "case.toml"
+    path.write_text(text)
+    with pytest.raises(rf.InputError, match=re.escape(message)):
+        rf.load_case(path, rf.load_surface("G5"))
+
+
+def test_a_run_too_large_for_memory_is_refused_before_re_gridding(monkeypatch):
+    """The command's memory gate, in fem_case: an n whose run would not fit (N = 1024 needs
+    about 46 GB, 5 GB are available here) is refused before the surface is interpolated onto
+    it; N = 256 (about 3 GB) fits."""
+    from roughfriction.solver import memory
+
+    def re_grid(*args):
+        raise AssertionError("re-gridded before the memory was checked")
+
+    monkeypatch.setattr(memory, "available_memory_gb", lambda comm: 5.0)
+    g5 = rf.load_surface("G5")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # the Fourier interpolation's note
+        assert rf.fem_case(g5, 0.155, n=256).surface.n == 256
+    monkeypatch.setattr(fem_input, "surface_on_fem_grid", re_grid)
+    with pytest.raises(rf.InputError, match="N = 1024: the FEM run needs about .* GB .*, 5 GB are "
+                       "available"):
+        rf.fem_case(g5, 0.155, n=1024)
+
+
+@pytest.mark.parametrize("tol, limits, message", [
+    (1.5, None, "a relative error below 1"),
+    (0.0, None, "must be > 0"),
+    (0.1, rf.LadderLimits(tolerance=0.2), "two tolerances"),
+    (None, rf.LadderLimits(max_level=0), "an estimate needs two levels"),
+    (0.1, rf.LadderLimits(max_time_s=0.0), "max_time_s must be > 0"),
+])
+def test_bad_ladders_are_refused_before_the_run(tol, limits, message, monkeypatch):
+    from roughfriction.solver import run as solver_run
+
+    monkeypatch.setattr(solver_run, "run", lambda *args, **kwargs: pytest.fail("the run started"))
+    case = rf.fem_case(rf.load_surface("G5"), 0.155, n=8, window=1)
+    with pytest.raises(rf.InputError, match=re.escape(message)):
+        rf.run_fem(case, tol=tol, limits=limits)
+
+
+def test_requests_differ_by_what_their_ladder_computes():
+    """The request digest (the results file a request reuses) tells apart a single run, the
+    two-level ladder, tolerances, a uniform ladder and another zone margin; not the limits on
+    time and memory, which only stop a ladder sooner."""
+    from roughfriction.studies.fem_request import ladder_labels, request_digest
+
+    case = rf.fem_case(rf.load_surface("G5"), 0.155, n=8, window=1)
+    ladders = [None, rf.LadderLimits(max_level=1), rf.LadderLimits(0.03),
+               rf.LadderLimits(0.05), rf.LadderLimits(0.03, max_level=2),
+               rf.LadderLimits(0.03, ladder="uniform"), rf.LadderLimits(0.03, margin=2)]
+    digests = {request_digest(case, ladder_labels(limits)) for limits in ladders}
+    assert len(digests) == len(ladders)
+    assert ladder_labels(rf.LadderLimits(0.03, max_memory_gb=2.0, max_time_s=60.0)) == (
+        "tol0.03_L3",)
+
+
+# --- the error ladder through run_fem ---------------------------------------------------------
+
+def quiet(record):
+    """A progress callable that drops every line."""
+
+
+def without_timings(summary: dict) -> dict:
+    """A summary without its wall times (the rest of a deterministic run repeats exactly)."""
+    return {**{key: value for key, value in summary.items() if key != "wall_s"},
+            "levels": {key: value for key, value in summary["levels"].items()
+                       if key != "wall_s"}}
+
+
+@pytest.mark.fem
+def test_run_fem_with_a_tolerance_is_the_command_s_ladder(tmp_path, capsys):
+    """G5's first 8 x 8 window at F* = 0.155 to 50 % within level 2, through the API and
+    through fem --tol 0.5 --max-level 2: the same levels, mu_s and mu_s_error."""
+    import json
+
+    from roughfriction.scripts.cli import main
+
+    case = rf.fem_case(rf.load_surface("G5"), 0.155, n=8, window=1)
+    summary = rf.run_fem(case, tmp_path / "api.h5", tol=0.5, limits=rf.LadderLimits(max_level=2),
+                         progress=quiet)
+    levels = summary["levels"]
+    assert summary["error_tolerance"] == 0.5 and summary["error_tolerance_met"]
+    assert levels["factor"][:2] == [1, 2] and levels["mu_s"][-1] == summary["mu_s"]
+    assert 0 < summary["mu_s_error"] <= 0.5 * summary["mu_s"]
+    assert rf.read_run(tmp_path / "api.h5").summary == summary
+    assert main(["fem", "G5", "--n", "8", "--window", "1", "--load", "0.155", "--tol", "0.5",
+                 "--max-level", "2", "--json", "--output", str(tmp_path / "cli.h5")]) == 0
+    printed = json.loads(capsys.readouterr().out)
+    assert printed["mu_s_error"] == summary["mu_s_error"]
+    assert printed["levels"]["mu_s"] == levels["mu_s"]
+    assert without_timings(printed) == without_timings(summary)
+
+
+@pytest.mark.fem
+def test_the_same_request_from_either_door_is_one_results_file(tmp_path, monkeypatch, capsys):
+    """A two-level ladder run through the API is the request of fem --refine --ladder uniform:
+    the command finds it in the API's results file and prints its summary without a solve."""
+    import json
+
+    from roughfriction.scripts.cli import main
+    from roughfriction.solver import run as solver_run
+
+    path = tmp_path / "rough.npy"
+    np.save(path, np.random.default_rng(3).normal(0.0, 0.1e-6, (8, 8)))
+    surface = rf.load_surface(str(path), size="7um")
+    case = rf.fem_case(surface, 0.3, normal_only=True, solver=rf.SolverOptions(elastic=True),
+                       measured=True)
+    output = tmp_path / "run.h5"
+    summary = rf.run_fem(case, output, limits=rf.LadderLimits(max_level=1, ladder="uniform"),
+                         progress=quiet)
+    assert summary["levels"]["factor"] == [1, 2] and summary["error_ladder"] == "uniform"
+    levels = summary["levels"]
+    assert summary["area_ratio_normal_error"] == pytest.approx(certify(
+        levels["area_ratio_normal"], levels["contact_nodes"][-1],
+        levels["boundary_nodes"][-1]).error)
+    monkeypatch.setattr(solver_run, "run", lambda *args, **kwargs: pytest.fail("solved"))
+    assert main(["fem", str(path), "--size", "7um", "--load", "0.3", "--normal-only",
+                 "--elastic", "--refine", "--ladder", "uniform", "--json",
+                 "--output", str(output)]) == 0
+    captured = capsys.readouterr()
+    assert json.loads(captured.out) == summary
+    assert captured.err.startswith(f"reused: {output} holds this case")
+
+
 @pytest.mark.fem
 def test_the_examples_of_docs_api_md_run(tmp_path, monkeypatch, capsys):
     """Every ```python block of docs/api.md, in order, as one script in an empty folder."""
@@ -136,15 +308,16 @@ def test_the_examples_of_docs_api_md_run(tmp_path, monkeypatch, capsys):
         except Exception as error:
             pytest.fail(f"docs/api.md block {number} failed: {error!r}")
     out = capsys.readouterr().out
-    assert out.count("refused:") == 4
-    assert (tmp_path / "g5_window.h5").is_file()
+    assert out.count("refused:") == 5
+    assert (tmp_path / "g5_window.h5").is_file() and (tmp_path / "g5_tol.h5").is_file()
 
 
 @pytest.mark.mpi
 @pytest.mark.fem
 def test_run_fem_on_two_ranks_writes_one_file_and_refuses_on_every_rank(tmp_path_factory):
     """Under mpirun every rank calls run_fem: one results file, the same summary on both
-    ranks, and a refused output raises on both (no rank left waiting)."""
+    ranks, the same request again read from it, and a refused output raises on both (no rank
+    left waiting)."""
     from mpi4py import MPI
 
     comm = MPI.COMM_WORLD
@@ -152,9 +325,13 @@ def test_run_fem_on_two_ranks_writes_one_file_and_refuses_on_every_rank(tmp_path
     folder = comm.bcast(str(tmp_path_factory.mktemp("api")) if comm.rank == 0 else None)
     output = Path(folder) / "run.h5"
     case = rf.fem_case(rf.load_surface("G5"), 0.155, n=8, window="best", normal_only=True)
-    fem = rf.run_fem(case, output, progress=lambda record: None)
-    areas = comm.allgather(fem.result.summary()["area_ratio_normal"])
+    summary = rf.run_fem(case, output, progress=lambda record: None)
+    areas = comm.allgather(summary["area_ratio_normal"])
     assert areas[0] == areas[1] == rf.read_run(output).summary["area_ratio_normal"]
-    with pytest.raises(rf.InputError, match="exists"):
-        rf.run_fem(case, output)
+    stored = rf.read_run(output).summary  # rank 0's summary (the ranks' wall times differ)
+    assert rf.run_fem(case, output, progress=lambda record: None) == stored  # read, not run
+    assert stored == summary or comm.rank != 0
+    heavier = rf.fem_case(rf.load_surface("G5"), 0.3, n=8, window="best", normal_only=True)
+    with pytest.raises(rf.InputError, match="holds another case"):
+        rf.run_fem(heavier, output)
     comm.barrier()

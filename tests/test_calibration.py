@@ -1,13 +1,14 @@
 """The error estimate of ``fem --tol``: its bookkeeping on a small ladder (files, JSON, post,
-exit 3), and the certificate judged on a calibration set (``studies.calibration``)."""
+exit 3), and the certificate judged on a calibration set (``benchmarks.calibration``)."""
 
 import json
 
 import h5py
 import pytest
 from roughfriction.scripts.cli import main
-from roughfriction.studies import calibration
-from roughfriction.studies.refinement import richardson
+from roughfriction.studies.certificate import LADDER_FACTOR, certify
+
+from benchmarks import calibration
 
 #: A 4 x 4 window of G5 (i.i.d.): levels 1x, 2x, 4x take seconds.
 WINDOW = ["G5", "--n", "4", "--window", "1"]
@@ -31,10 +32,11 @@ def test_a_tolerance_out_of_reach_exits_3_with_the_best_estimate_and_the_file(tm
     levels = summary["levels"]
     assert levels["factor"] == [1, 2, 4] and levels["mu_s"][-1] == summary["mu_s"]
     assert levels["reduced_dofs"][0] < levels["reduced_dofs"][1] < levels["reduced_dofs"][2]
-    estimate = richardson(levels["mu_s"])
+    estimate = certify(levels["mu_s"], levels["contact_nodes"][-1], levels["boundary_nodes"][-1])
     assert summary["mu_s_error"] == pytest.approx(estimate.error)
-    assert summary["error_order_observed"] == estimate.observed
-    assert summary["error_levels_used"] == 3 and not summary["error_tolerance_met"]
+    assert summary["error_ladder_term"] == pytest.approx(
+        LADDER_FACTOR * abs(levels["mu_s"][2] - levels["mu_s"][1]))
+    assert not summary["error_tolerance_met"]
     assert "--max-level 2" in summary["error_stopped"]
     assert main(["post", str(output), "--json"]) == 0
     report = json.loads(capsys.readouterr().out)
@@ -42,19 +44,21 @@ def test_a_tolerance_out_of_reach_exits_3_with_the_best_estimate_and_the_file(tm
 
 
 @pytest.mark.fem
-def test_a_tolerance_met_on_two_levels_uses_the_assumed_order(tmp_path, capsys):
+def test_a_tolerance_met_on_two_levels_reports_the_certificate_of_the_2x_value(tmp_path,
+                                                                             capsys):
     output = tmp_path / "met.h5"
     assert main(["fem", *WINDOW, "--load", "0.93", "--tol", "0.2", "--json", "--output",
                  str(output)]) == 0
     summary = json.loads(capsys.readouterr().out)
     assert summary["levels"]["factor"] == [1, 2] and summary["error_tolerance_met"]
-    assert not summary["error_order_observed"] and summary["error_order"] == 1.0
     assert summary["mu_s_error"] <= 0.2 * summary["mu_s"]
+    assert summary["mu_s_error"] == pytest.approx(certify(
+        summary["levels"]["mu_s"], summary["contact_nodes"], summary["boundary_nodes"]).error)
     with h5py.File(output) as h5:
         assert json.loads(h5.attrs["summary"]) == summary
 
 
-# --- the certificate on the calibration set (studies.calibration) ----------------------------
+# --- the certificate on the calibration set (benchmarks.calibration) ----------------------------
 
 LADDER_HEADER = ("surface,window,n,load_star,level,factor,mu_s,converged,contact_nodes,"
                  "boundary_nodes,physics\n")

@@ -7,24 +7,28 @@ import dolfinx  # noqa: E402, F401  (an install without the FEM fails here)
 import numpy as np
 import pytest
 from roughfriction.errors import InputError  # noqa: E402
+from roughfriction.geometry.adaptive import block_layout, block_nodes
 from roughfriction.geometry.mesh import (  # noqa: E402
     GMSH_HEXAHEDRON,
     GMSH_QUADRANGLE,
     Boundary,
     MeshOptions,
-    block_nodes,
     boundary_quadrangles,
     corner_jacobians,
     gmsh_model,
-    interpolation_masters,
     layer_layout,
-    structured_block,
 )
 from roughfriction.geometry.mesh_file import write_msh
 
 pytestmark = pytest.mark.fem
 
 SPACING = 1e-6
+
+
+def nodes_of(heights, spacing=SPACING):
+    """The block of an unrefined surface (default mesh options) on one process
+    (``geometry.adaptive.block_nodes``)."""
+    return block_nodes(block_layout(len(heights), spacing, MeshOptions()), heights)
 
 
 def test_uncoarsened_layers_are_fine_then_grow_to_the_depth():
@@ -48,31 +52,6 @@ def test_coarsened_levels_halve_the_lateral_resolution_in_cubic_layers():
     # N = 12 halves twice (12 / 8 is not whole); the 4h level's second layer would pass the depth
     _, stride = layer_layout(12, SPACING, MeshOptions(fine_layers=4))
     assert set(stride) == {1, 2, 4} and stride[0] == 4
-
-
-def test_hanging_nodes_interpolate_the_corners_of_the_coarse_face():
-    stride = np.array([2, 1])  # cell layer 0 coarse, 1 fine: node layer 1 is the interface
-    grid = np.array([[2, 4, 1], [1, 4, 1], [2, 3, 1], [1, 3, 1], [1, 3, 2], [2, 2, 0]])
-    masters, weights = interpolation_masters(grid, stride)
-    np.testing.assert_allclose(weights.sum(axis=1), 1.0)
-    expected = [{(2, 4, 1): 1.0}, {(0, 4, 1): 0.5, (2, 4, 1): 0.5},
-                {(2, 2, 1): 0.5, (2, 4, 1): 0.5},
-                {(0, 2, 1): 0.25, (0, 4, 1): 0.25, (2, 2, 1): 0.25, (2, 4, 1): 0.25},
-                {(1, 3, 2): 1.0}, {(2, 2, 0): 1.0}]
-    for node, weights_of in enumerate(expected):
-        found = {tuple(m): w for m, w in zip(masters[node], weights[node], strict=True) if w}
-        assert found == weights_of
-
-
-def test_structured_block_cells_use_only_existing_nodes_and_cover_the_block():
-    n, stride = 8, np.array([4, 2, 2, 1])
-    grid, hexahedra = structured_block(n, stride)
-    assert len(hexahedra) == sum((n // s) ** 2 for s in stride)
-    assert len(np.unique(grid, axis=0)) == len(grid)
-    corners = grid[hexahedra]  # (cells, 8, 3), gmsh order: bottom face then top face
-    assert np.all(corners[:, :4, 2] + 1 == corners[:, 4:, 2])
-    width = corners[:, 2, 0] - corners[:, 0, 0]
-    assert np.array_equal(width, stride[corners[:, 0, 2]])
 
 
 def test_corner_jacobians_of_unit_and_sheared_cubes():
@@ -119,7 +98,7 @@ def test_geometry_uses_neither_the_fem_library_nor_mpi():
 def test_block_nodes_sit_on_the_periodic_height_map():
     n = 8
     heights = rough(n, 0.2 * SPACING)
-    nodes = block_nodes(heights, SPACING, MeshOptions())
+    nodes = nodes_of(heights)
     x, (i, j, k) = nodes.coordinates, nodes.grid.T
     num_layers = len(nodes.layer_z) - 1
     top = k == num_layers
@@ -136,7 +115,7 @@ def test_block_nodes_sit_on_the_periodic_height_map():
 
 def test_boundary_quadrangles_cover_each_side_and_face_out():
     n = 8
-    nodes = block_nodes(np.zeros((n, n)), SPACING, MeshOptions())
+    nodes = nodes_of(np.zeros((n, n)))
     assert set(nodes.layer_stride) == {1, 2}  # coarsened once
     sides = boundary_quadrangles(nodes)
     assert len(sides[Boundary.CONTACT]) == n * n
@@ -173,7 +152,7 @@ def read_msh(path):
 
 
 def test_the_msh_file_holds_the_moved_block_and_its_named_sides(tmp_path):
-    nodes = block_nodes(rough(8, 0.2 * SPACING), SPACING, MeshOptions())
+    nodes = nodes_of(rough(8, 0.2 * SPACING))
     path = write_msh(nodes, tmp_path / "block.msh")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["block.msh"]  # no partial file left
     coordinates, hexahedra, groups = read_msh(path)
@@ -185,7 +164,7 @@ def test_the_msh_file_holds_the_moved_block_and_its_named_sides(tmp_path):
 
 
 def test_an_msh_path_that_cannot_be_written_is_refused(tmp_path):
-    nodes = block_nodes(np.zeros((4, 4)), SPACING, MeshOptions())
+    nodes = nodes_of(np.zeros((4, 4)))
     with pytest.raises(InputError, match="ends in .msh"):
         write_msh(nodes, tmp_path / "block.vtk")
     with pytest.raises(InputError, match="cannot write the mesh"):

@@ -1,5 +1,7 @@
-"""Richardson error estimates and refined cases on the same bilinear surface."""
+"""Richardson extrapolation, refined cases on the same bilinear surface, and the ladder of levels
+with its certificate."""
 
+import math
 from functools import partial
 
 import numpy as np
@@ -7,13 +9,16 @@ import pytest
 from roughfriction.case import FemCase, Loading
 from roughfriction.errors import InputError
 from roughfriction.geometry.adaptive import cells_at_nodes
-from roughfriction.geometry.mesh import blend_layers_needed, mesh_size
+from roughfriction.geometry.mesh import blend_layers_needed
 from roughfriction.geometry.surface import Surface
+from roughfriction.solver.memory import block_size
+from roughfriction.solver.results import count_boundary_nodes
+from roughfriction.studies.certificate import LADDER_FACTOR, certify
 from roughfriction.studies.refinement import (
-    ASSUMED_ORDER,
     LadderLimits,
     LevelRun,
     level_case,
+    level_layout,
     refined_case,
     richardson,
     run_ladder,
@@ -99,17 +104,24 @@ def test_the_blend_zone_has_the_same_physical_depth_on_every_level(factor, valle
 SECONDS_PER_DOF = 1e-3
 
 
+#: Contact nodes and boundary nodes of the fake runner's level 0 (x 4 and x 2 per level) [-].
+FAKE_CONTACT, FAKE_BOUNDARY = 400, 100
+
+
 def power_law_runner(exact=0.2, constant=0.1, order=2.0):
     """A runner whose value on level k is exact + constant (2^-k)^order, with the level's
-    real mesh size, taking SECONDS_PER_DOF per dof on its clock; it records the levels it ran
-    and the ladders it was saved with."""
+    real mesh size and a contact of FAKE_CONTACT 4^k nodes, FAKE_BOUNDARY 2^k on a boundary,
+    taking SECONDS_PER_DOF per dof on its clock; it records the levels it ran and the
+    ladders it was saved with."""
     ran, saved, now = [], [], [0.0]
 
     def run_level(level, level_case):
         ran.append((level, level_case.surface.n))
-        cells, dofs = mesh_size(level_case.surface.n, level_case.mesh)
+        cells, dofs = block_size(level_layout(level_case))
         now[0] += SECONDS_PER_DOF * dofs
-        return LevelRun(exact + constant * 0.5**(order * level), dofs, cells, save=saved.append)
+        return LevelRun(exact + constant * 0.5**(order * level), dofs, cells, save=saved.append,
+                        contact_nodes=FAKE_CONTACT * 4**level,
+                        boundary_nodes=FAKE_BOUNDARY * 2**level)
     return run_level, ran, saved, lambda: now[0]
 
 
@@ -120,33 +132,42 @@ CASE = FemCase(Surface(np.random.default_rng(1).normal(size=(4, 4)) * 1e-7, 1e-6
                Loading(0.155))
 
 
-def test_the_ladder_stops_at_the_first_level_within_the_tolerance():
+def test_the_ladder_stops_at_the_first_level_whose_certificate_is_within_the_tolerance():
+    """Values 0.3, 0.225, 0.20625: a tolerance between the 2x and the 4x certificates (relative)
+    stops the ladder at 4x."""
+    values = [0.2 + 0.1 / 4**k for k in range(3)]
+    at_2x = certify(values[:2], FAKE_CONTACT * 4, FAKE_BOUNDARY * 2).relative_error
+    at_4x = certify(values, FAKE_CONTACT * 16, FAKE_BOUNDARY * 4).relative_error
+    assert at_4x < at_2x
     run_level, ran, saved, clock = power_law_runner()
-    ladder = run_ladder(CASE, run_level, UNIFORM(tolerance=0.05), lambda case: 1.0, clock)
+    ladder = run_ladder(CASE, run_level, UNIFORM(tolerance=math.sqrt(at_2x * at_4x)),
+                        lambda case: 1.0, clock)
     assert [n for _, n in ran] == [4, 8, 16]  # 1x, 2x, 4x of the same surface
-    assert ladder.met and ladder.estimate.observed
-    assert ladder.estimate.order == pytest.approx(2.0)
+    expected = certify(values, FAKE_CONTACT * 16, FAKE_BOUNDARY * 4)
     summary = ladder.summary()
-    assert summary["mu_s"] == pytest.approx(0.2 + 0.1 / 16)
-    assert summary["mu_s_error"] == pytest.approx(0.1 / 16)  # exact for a power law
-    assert summary["mu_s_coarse"] == pytest.approx(0.2 + 0.1 / 4)
+    assert ladder.met and summary["mu_s"] == pytest.approx(values[-1])
+    assert summary["mu_s_error"] == pytest.approx(expected.error)
+    assert summary["error_ladder_term"] == pytest.approx(LADDER_FACTOR * (values[1] - values[2]))
+    assert summary["error_resolution_term"] == pytest.approx(expected.resolution_term)
+    assert summary["mu_s_coarse"] == pytest.approx(values[1])
     assert summary["levels"]["factor"] == [1, 2, 4]
-    dofs = [mesh_size(level_case(CASE, level).surface.n, level_case(CASE, level).mesh)[1]
-            for level in range(3)]
+    assert summary["levels"]["contact_nodes"] == [400, 1600, 6400]
+    assert summary["levels"]["boundary_nodes"] == [100, 200, 400]
+    dofs = [block_size(level_layout(level_case(CASE, level)))[1] for level in range(3)]
     assert summary["levels"]["reduced_dofs"] == dofs
     assert summary["levels"]["wall_s"] == pytest.approx([SECONDS_PER_DOF * d for d in dofs])
-    assert summary["error_levels_used"] == 3 and summary["error_tolerance_met"]
+    assert summary["error_tolerance_met"]
     # each level is saved once, with the ladder as it stood when the level finished
     assert [len(ladder.levels) for ladder in saved] == [1, 2, 3]
     assert saved[0].summary()["mu_s_error"] is None
+    assert saved[1].summary()["mu_s_error_relative"] == pytest.approx(at_2x)
 
 
-def test_two_levels_use_the_assumed_order_and_say_so():
-    run_level, _, _, _ = power_law_runner(order=1.0)
-    ladder = run_ladder(CASE, run_level, UNIFORM(tolerance=0.3), lambda case: 1.0)
-    assert len(ladder.levels) == 2 and ladder.met
-    assert not ladder.estimate.observed and ladder.estimate.order == ASSUMED_ORDER
-    assert ladder.summary()["error_order_observed"] is False
+def test_a_level_without_contact_counts_gives_no_certificate():
+    def run_level(level, level_case):
+        return LevelRun(0.2 + 0.1 * 0.5**level, 100, 10)
+    ladder = run_ladder(CASE, run_level, UNIFORM(max_level=1), lambda case: 1.0)
+    assert ladder.estimate is None and ladder.summary()["mu_s_error"] is None
 
 
 def test_without_a_tolerance_the_ladder_runs_to_its_level_the_refine_shortcut():
@@ -157,8 +178,7 @@ def test_without_a_tolerance_the_ladder_runs_to_its_level_the_refine_shortcut():
 
 def dofs_through(level):
     """Reduced dofs of CASE's levels 0..level together."""
-    return sum(mesh_size(level_case(CASE, k).surface.n, level_case(CASE, k).mesh)[1]
-               for k in range(level + 1))
+    return sum(block_size(level_layout(level_case(CASE, k)))[1] for k in range(level + 1))
 
 
 @pytest.mark.parametrize(("limits", "reason"), [
@@ -177,7 +197,7 @@ def test_a_limit_stops_the_ladder_short_of_the_tolerance_with_its_reason(limits,
     assert saved[-1].stopped == ladder.stopped  # the file of the last level says why
     line = ladder.shortfall()
     assert line.startswith("tolerance 0.01 % not met: mu_s = ") and "at 4x" in line
-    assert "observed order 2" in line and "\n" not in line
+    assert "%, certified) at 4x" in line and "\n" not in line
 
 
 # --- the adaptive ladder, with a runner whose contact is a disc of the same physical size -----
@@ -198,7 +218,8 @@ def disc_runner(radii, reach=(0.0, 0.0, 0.0)):
         contact, near = (disc(side, side // 2, radius * 2**level)
                          for radius in (radii[level], radii[level] + reach[level]))
         return LevelRun(0.2 + 0.1 * 0.5**level, 100 * (level + 1), 10, contact=contact,
-                        near=near)
+                        near=near, contact_nodes=int(contact.sum()),
+                        boundary_nodes=count_boundary_nodes(contact))
     return run_level, ran
 
 

@@ -7,8 +7,8 @@ import types
 import numpy as np
 import pytest
 from roughfriction.scripts.figures import export_summaries, make_figure, read_table
-from roughfriction.studies.post import interference, read_run
-from roughfriction.studies.run_summary import read_summary, stale_summaries
+from roughfriction.studies.post import interference, read_run, read_summary
+from roughfriction.studies.run_summary import stale_summaries
 
 pytestmark = pytest.mark.fem
 

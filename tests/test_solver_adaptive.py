@@ -1,4 +1,4 @@
-"""The contact-adaptive block in a run: the all-zone mask is today's uniformly refined run."""
+"""The contact-adaptive block in a run: the all-zone mask is the uniform ladder's run."""
 
 from dataclasses import replace
 from types import SimpleNamespace
@@ -7,13 +7,13 @@ import numpy as np
 import pytest
 from roughfriction.case import FemCase, Loading, MeshOptions, ZoneRefinement
 from roughfriction.errors import InputError
-from roughfriction.geometry.adaptive import cells_at_nodes
+from roughfriction.geometry.adaptive import block_layout, block_nodes, cells_at_nodes
 from roughfriction.geometry.surface import Surface
 from roughfriction.studies.refinement import refined_case
 
 pytest.importorskip("dolfinx")
 from mpi4py import MPI  # noqa: E402
-from roughfriction.solver.block import build_block, mesh_nodes  # noqa: E402
+from roughfriction.solver.block import build_block  # noqa: E402
 from roughfriction.solver.results import touched_nodes  # noqa: E402
 from roughfriction.solver.run import FemRun, near_flat, run  # noqa: E402
 from roughfriction.studies.refinement import adaptive_level_case  # noqa: E402
@@ -41,21 +41,26 @@ def all_zone(case: FemCase, level: int = LEVEL) -> FemCase:
 
 
 def uniform(case: FemCase, level: int = LEVEL) -> FemCase:
-    """The uniform ladder's level ``level``: the case re-gridded 2^level times finer on the
-    structured block."""
+    """The uniform ladder's level ``level``: the case re-gridded 2^level times finer, without
+    refinement."""
     return refined_case(case, 2**level)
+
+
+def case_nodes(case: FemCase):
+    """The block of a case on one process (``geometry.adaptive.block_nodes``)."""
+    surface = case.surface
+    return block_nodes(block_layout(surface.n, surface.spacing, case.mesh), surface.heights)
 
 
 @pytest.mark.parametrize("level", [1, 2])
 @pytest.mark.parametrize("options", LAYERINGS)
-def test_the_all_zone_block_is_the_structured_block_of_the_refined_surface(level, options):
+def test_the_all_zone_block_is_the_unrefined_block_of_the_refined_surface(level, options):
     case = gentle_case(mesh=options)
-    adaptive, structured = all_zone(case, level), uniform(case, level)
-    a = mesh_nodes(adaptive.surface.heights, adaptive.surface.spacing, adaptive.mesh)
-    s = mesh_nodes(structured.surface.heights, structured.surface.spacing, structured.mesh)
+    adaptive, regridded = all_zone(case, level), uniform(case, level)
+    a, s = case_nodes(adaptive), case_nodes(regridded)
     assert (a.n, a.spacing) == (s.n, s.spacing)
     # the blend zone as deep in metres as the case's own
-    assert structured.mesh.blend_layers * s.spacing == pytest.approx(
+    assert regridded.mesh.blend_layers * s.spacing == pytest.approx(
         options.blend_layers * SPACING, rel=1e-12)
     np.testing.assert_allclose(a.layer_z, s.layer_z, rtol=0, atol=1e-18)
     np.testing.assert_array_equal(a.layer_stride, s.layer_stride)
@@ -79,12 +84,12 @@ def test_the_all_zone_run_reproduces_the_uniformly_refined_run():
     case = gentle_case()
     results = {name: run(make(case), MPI.COMM_SELF, progress=lambda record: None).result
                for name, make in (("adaptive", all_zone), ("uniform", uniform))}
-    adaptive, structured = results["adaptive"], results["uniform"]
-    assert adaptive.converged and structured.converged
-    assert adaptive.sizes["reduced_dofs"] == structured.sizes["reduced_dofs"]
+    adaptive, regridded = results["adaptive"], results["uniform"]
+    assert adaptive.converged and regridded.converged
+    assert adaptive.sizes["reduced_dofs"] == regridded.sizes["reduced_dofs"]
     assert adaptive.sizes["refinement_level"] == LEVEL
-    assert structured.mu_s > 0.05
-    assert adaptive.mu_s == pytest.approx(structured.mu_s, rel=1e-10, abs=0)
+    assert regridded.mu_s > 0.05
+    assert adaptive.mu_s == pytest.approx(regridded.mu_s, rel=1e-10, abs=0)
 
 
 @pytest.mark.mpi
@@ -92,10 +97,10 @@ def test_the_all_zone_run_reproduces_the_uniformly_refined_run():
 def test_the_all_zone_run_reproduces_the_uniformly_refined_run_across_ranks():
     """The same on 2 ranks: hanging-node ties and slab partition of the adaptive block."""
     case = gentle_case(normal_only=True)
-    adaptive, structured = (run(make(case), MPI.COMM_WORLD, progress=lambda record: None).result
+    adaptive, regridded = (run(make(case), MPI.COMM_WORLD, progress=lambda record: None).result
                             for make in (all_zone, uniform))
-    assert adaptive.converged and structured.converged
-    assert adaptive.records[-1].area_ratio == pytest.approx(structured.records[-1].area_ratio,
+    assert adaptive.converged and regridded.converged
+    assert adaptive.records[-1].area_ratio == pytest.approx(regridded.records[-1].area_ratio,
                                                             rel=1e-10, abs=0)
 
 
@@ -148,9 +153,9 @@ def test_the_next_level_refines_the_cells_around_the_last_level_s_contact_and_ne
 def test_a_partial_zone_run_converges_with_fewer_dofs_than_the_uniform_one():
     case = partial_zone_case()
     adaptive = run(case, MPI.COMM_SELF, progress=lambda record: None)
-    structured = run(uniform(case), MPI.COMM_SELF, progress=lambda record: None)
-    assert adaptive.result.converged and structured.result.converged
-    assert adaptive.result.sizes["reduced_dofs"] < 0.8 * structured.result.sizes["reduced_dofs"]
+    regridded = run(uniform(case), MPI.COMM_SELF, progress=lambda record: None)
+    assert adaptive.result.converged and regridded.result.converged
+    assert adaptive.result.sizes["reduced_dofs"] < 0.8 * regridded.result.sizes["reduced_dofs"]
     assert adaptive.maps["contact_normal"].shape == (16, 16)
     assert adaptive.maps["contact_normal"].any()
 

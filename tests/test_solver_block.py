@@ -9,7 +9,6 @@ from roughfriction.errors import InputError  # noqa: E402
 from roughfriction.geometry.mesh import (  # noqa: E402
     Boundary,
     MeshOptions,
-    block_nodes,
     boundary_quadrangles,
 )
 from roughfriction.solver.block import (  # noqa: E402
@@ -18,6 +17,7 @@ from roughfriction.solver.block import (  # noqa: E402
     slab_mesh,
     slab_partitioner,
 )
+from test_mesh import nodes_of  # noqa: E402
 
 pytestmark = pytest.mark.fem
 
@@ -32,7 +32,7 @@ def test_the_mesh_read_through_gmsh_is_the_mesh_of_its_nodes_and_cells():
     """gmsh and gmshio neither move, renumber nor reorder anything: the mesh equals the one made
     from the NumPy nodes and cells directly, node for node, and the grid index is each node's."""
     heights = rough(8, 0.2 * SPACING)
-    nodes = block_nodes(heights, SPACING, MeshOptions())
+    nodes = nodes_of(heights)
     block = build_block(heights, SPACING, MeshOptions(), MPI.COMM_WORLD)
     on_root = MPI.COMM_WORLD.rank == 0
     direct = slab_mesh(MPI.COMM_WORLD, nodes.coordinates if on_root else np.empty((0, 3)),
@@ -58,8 +58,7 @@ def test_facet_tags_are_the_sides_of_the_gmsh_model():
 
     facet_nodes = entities_to_geometry(block.mesh._mesh, 2, tags.indices, False)
     inputs = np.asarray(block.mesh.geometry.input_global_indices)[facet_nodes]
-    for side, quadrangles in boundary_quadrangles(block_nodes(heights, SPACING,
-                                                              MeshOptions())).items():
+    for side, quadrangles in boundary_quadrangles(nodes_of(heights)).items():
         mine = {tuple(sorted(f)) for f in inputs[tags.values == side]}
         tagged = set().union(*MPI.COMM_WORLD.allgather(mine))
         assert tagged == {tuple(sorted(q)) for q in quadrangles}, side
@@ -113,7 +112,7 @@ def test_the_fem_command_writes_the_block_it_meshes_as_msh(tmp_path, capsys):
     assert code == 0
     coordinates, hexahedra, groups = read_msh(msh)
     surface = load_surface(str(path), size="7um")  # as the command reads it (detrended)
-    nodes = block_nodes(surface.heights, surface.spacing, MeshOptions())
+    nodes = nodes_of(surface.heights, surface.spacing)
     np.testing.assert_array_equal(coordinates, nodes.coordinates)
     np.testing.assert_array_equal(hexahedra, nodes.hexahedra)
     assert len(groups[Boundary.CONTACT.name.lower()]) == 8 * 8

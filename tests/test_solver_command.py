@@ -18,8 +18,10 @@ from roughfriction.geometry.statistics import surface_statistics
 from roughfriction.geometry.surface import surface_on_fem_grid
 from roughfriction.material import Material
 from roughfriction.scripts.cli import main as cli_main
-from roughfriction.scripts.fem import default_output, unresolved_warning  # noqa: E402
+from roughfriction.scripts.fem import default_output  # noqa: E402
 from roughfriction.solver.results import count_patches  # noqa: E402
+from roughfriction.studies.certificate import LADDER_FACTOR, certify
+from roughfriction.studies.fem_request import unresolved_warning  # noqa: E402
 
 JSON_KEYS = {"mu_s", "Ft_max", "Fn", "area_ratio_normal", "area_ratio_sliding",
              "junction_growth", "contact_nodes", "contact_patches", "cells_per_patch", "reliable",
@@ -129,9 +131,10 @@ def test_bad_loads():
 
 
 def test_an_implausible_load_is_refused_before_re_gridding(monkeypatch, capsys):
-    from roughfriction.scripts import fem
+    from roughfriction.studies import fem_input
 
-    monkeypatch.setattr(fem, "meshed_surface", lambda *args: pytest.fail("re-gridded first"))
+    monkeypatch.setattr(fem_input, "surface_as_meshed",
+                        lambda *args: pytest.fail("re-gridded first"))
     assert main(["G5", "--load", "1e9", "--n", "16"]) == 2
     assert "F*" in capsys.readouterr().err
 
@@ -163,10 +166,13 @@ def test_refine_reports_the_finer_mesh_with_an_error_estimate(tmp_path, capsys):
                  "--output", str(output)])
     assert code == 0
     summary = json.loads(capsys.readouterr().out)
-    assert summary["converged"] and summary["error_order"] == 1.0
-    difference = summary["mu_s"] - summary["mu_s_coarse"]
-    assert summary["mu_s_error"] == pytest.approx(abs(difference))
-    assert summary["mu_s_extrapolated"] == pytest.approx(summary["mu_s"] + difference)
+    assert summary["converged"]
+    certificate = certify((summary["mu_s_coarse"], summary["mu_s"]), summary["contact_nodes"],
+                          summary["boundary_nodes"])
+    assert summary["mu_s_error"] == pytest.approx(certificate.error)
+    assert summary["error_ladder_term"] == pytest.approx(
+        LADDER_FACTOR * abs(summary["mu_s"] - summary["mu_s_coarse"]))
+    assert summary["levels"]["contact_nodes"][-1] == summary["contact_nodes"] > 0
     with h5py.File(output) as h5:
         assert json.loads(h5.attrs["summary"]) == summary
         assert json.loads(h5.attrs["inputs"])["surface"]["n"] == 16
@@ -186,8 +192,9 @@ def test_a_normal_only_tolerance_applies_to_the_contact_area(rough_file, tmp_pat
     levels = summary["levels"]
     assert summary["mu_s"] is None and levels["factor"] == [1, 2]
     assert levels["area_ratio_normal"][-1] == summary["area_ratio_normal"]
-    assert summary["area_ratio_normal_error"] == pytest.approx(
-        abs(levels["area_ratio_normal"][1] - levels["area_ratio_normal"][0]))
+    assert summary["area_ratio_normal_error"] == pytest.approx(certify(
+        levels["area_ratio_normal"], levels["contact_nodes"][-1],
+        levels["boundary_nodes"][-1]).error)
 
 
 @pytest.mark.fem
@@ -366,7 +373,7 @@ def test_a_measured_window_is_detrended_and_its_seam_warned(capsys):
     """al3d-1's 32 x 32 window 1: the FEM closes it periodically across a jump many times its
     neighbour steps; warned, and the window meshed without its plane."""
     from roughfriction.geometry.readers import load_surface
-    from roughfriction.scripts.fem import meshed_surface
+    from roughfriction.studies.api import meshed_surface
 
     scan = load_surface(str(DATA / "instruments" / "al3d-1.al3d"), square="crop")
     capsys.readouterr()
@@ -380,11 +387,16 @@ def test_a_measured_window_is_detrended_and_its_seam_warned(capsys):
 
 
 def test_a_steep_scan_is_warned_about_before_the_small_strain_run(capsys):
-    from roughfriction.geometry.readers import load_surface
-    from roughfriction.scripts.fem import meshed_surface
+    from types import SimpleNamespace
 
-    scan = load_surface(str(DATA / "nanovea_st400" / "test3.txt"))
-    meshed_surface(scan, None, None, Material(), measured=True)
+    from roughfriction.geometry.readers import load_surface
+    from roughfriction.scripts.fem import case_from_args
+
+    path = str(DATA / "nanovea_st400" / "test3.txt")
+    scan = load_surface(path)
+    command = SimpleNamespace(surface=path, config=None, load=0.3, n=None, window=None,
+                              elastic=None, normal_only=None)
+    case_from_args(command, scan)  # the fem command's case, as it builds it before the run
     warning, = [line for line in capsys.readouterr().err.splitlines()
                 if line.startswith("warning: ")]
     assert "RMS slope 0.47 > 0.3, beyond the small-strain FEM" in warning

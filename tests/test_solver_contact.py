@@ -4,8 +4,9 @@ integration points against the rigid flat (NumPy, one rank)."""
 import numpy as np
 import pytest
 from mpi4py import MPI
-from roughfriction.case import SolverOptions
+from roughfriction.case import MeshOptions, SolverOptions
 from roughfriction.errors import InputError
+from roughfriction.geometry.adaptive import block_layout
 from roughfriction.solver.contact import NEIGHBOURS, RigidFlat, face_quadrature
 from roughfriction.solver.contact_law import ContactLaw
 
@@ -16,6 +17,11 @@ SPACING = 1e-6  # [m]
 N = 4  # faces per side
 
 
+def uniform_cells(n):
+    """The cell sizes of an unrefined n x n surface: n x n top faces one spacing wide."""
+    return block_layout(n, SPACING, MeshOptions()).cells
+
+
 def flat_over(heights=None, ramp=RAMP, tangential=PENALTY, points=2):
     """A flat over an n x n grid of surface nodes whose displacement rows are the grid nodes
     i n + j (``heights``: n x n [m], default an N x N flat; ``tangential``: eps_T [Pa/m])."""
@@ -23,7 +29,7 @@ def flat_over(heights=None, ramp=RAMP, tangential=PENALTY, points=2):
     n = len(heights)
     i, j = np.divmod(np.arange(n * n), n)
     law = ContactLaw(PENALTY, tangential, TAU_C, ramp)
-    return RigidFlat(MPI.COMM_SELF, np.arange(n * n), np.column_stack([i, j]), n,
+    return RigidFlat(MPI.COMM_SELF, np.arange(n * n), np.column_stack([i, j]), uniform_cells(n),
                      heights.ravel(), SPACING, law, points)
 
 
@@ -335,7 +341,6 @@ def adaptive_flat(level=1, own=4, tangential=0.1 * PENALTY, peak=None):
     """A flat over the top faces of an adaptive block (``geometry.adaptive``): own x own cells
     of side 2^level SPACING, own cell (1, 2) refined to SPACING; the free surface nodes' rows
     are 0..m-1. ``peak``: a finest grid node raised by that height [m] (else flat)."""
-    from roughfriction.case import MeshOptions
     from roughfriction.geometry.adaptive import adaptive_layout
     from roughfriction.solver.contact import surface_faces
 
@@ -343,14 +348,14 @@ def adaptive_flat(level=1, own=4, tangential=0.1 * PENALTY, peak=None):
     zone[1, 2] = True
     cells = adaptive_layout(own, SPACING * 2**level, level, zone, MeshOptions()).cells
     n = cells.grid_size
-    faces = surface_faces(n, cells)
+    faces = surface_faces(cells)
     free = np.unique(faces.masters[faces.weights > 0.0])
     heights = np.zeros(len(free))
     if peak is not None:
         heights[np.flatnonzero(free == peak[0])] = peak[1]
     law = ContactLaw(PENALTY, tangential, TAU_C, RAMP)
     return RigidFlat(MPI.COMM_SELF, np.arange(len(free)), np.column_stack(np.divmod(free, n)),
-                     n, heights, SPACING, law, 2, cells=cells), faces
+                     cells, heights, SPACING, law, 2), faces
 
 
 def test_faces_of_varying_width_tile_the_surface_and_carry_a_uniform_pressure():
@@ -424,20 +429,19 @@ def test_ranks_evaluating_their_own_faces_reproduce_the_single_rank_contact(unif
     pressures and tangent rows of its own nodes, and the integrals, counts, maps and first flat
     height over all ranks, equal a single rank's over two sliding iterates and an Uzawa
     update (each rank evaluating fewer faces than the surface has)."""
-    from roughfriction.case import MeshOptions
     from roughfriction.geometry.adaptive import adaptive_layout
     from roughfriction.solver.contact import surface_faces
 
     comm = MPI.COMM_WORLD
     if uniform:
-        n, cells = 16, None
+        n, cells = 16, uniform_cells(16)
         grid = np.arange(n * n)
     else:
         zone = np.zeros((12, 12), bool)
         zone[1, 2] = zone[3, 0] = zone[6, 5] = zone[11, 11] = True
         cells = adaptive_layout(12, SPACING * 2, 1, zone, MeshOptions()).cells
         n = cells.grid_size
-        faces = surface_faces(n, cells)
+        faces = surface_faces(cells)
         grid = np.unique(faces.masters[faces.weights > 0.0])
     rng = np.random.default_rng(5)
     heights = rng.normal(size=len(grid)) * 1e-9  # [m]
@@ -448,8 +452,8 @@ def test_ranks_evaluating_their_own_faces_reproduce_the_single_rank_contact(unif
 
     def flat(communicator, keep):
         return anchored(RigidFlat(communicator, np.arange(np.count_nonzero(keep)),
-                                  np.column_stack([i[keep], j[keep]]), n, heights[keep],
-                                  SPACING, law, 2, cells=cells))
+                                  np.column_stack([i[keep], j[keep]]), cells, heights[keep],
+                                  SPACING, law, 2))
 
     whole, part = flat(MPI.COMM_SELF, np.ones(len(grid), bool)), flat(comm, mine)
     owned = set(part.owned_grid)

@@ -14,7 +14,7 @@ from dolfinx.fem import petsc as fem_petsc  # noqa: E402
 from mpi4py import MPI  # noqa: E402
 from petsc4py import PETSc  # noqa: E402
 from roughfriction.solver import reduced_assembly  # noqa: E402
-from roughfriction.solver.block import block_layout, build_block  # noqa: E402
+from roughfriction.solver.block import build_block  # noqa: E402
 from roughfriction.solver.periodic import PeriodicReduction  # noqa: E402
 from roughfriction.solver.reduced_assembly import ReducedAssembler  # noqa: E402
 from roughfriction.solver.solid import Solid  # noqa: E402
@@ -36,8 +36,8 @@ def test_pair_keys_skip_missing_nodes_and_repeats():
 
 
 def _case(adaptive: bool) -> FemCase:
-    """A random 8 x 8 surface, on the structured block (hanging nodes where the layers below
-    coarsen) or refined once around two nodes (hanging nodes in the surface zone too)."""
+    """A random 8 x 8 surface, unrefined (hanging nodes where the layers below coarsen) or
+    refined once around two nodes (hanging nodes in the surface zone too)."""
     heights = np.random.default_rng(11).normal(0.0, 0.08e-6, (8, 8))
     case = FemCase(Surface(heights, 1e-6, "assembly"), Loading(0.155))
     if not adaptive:
@@ -52,10 +52,9 @@ def _assembled_both_ways(case: FemCase, comm, stride: int = 1) -> tuple:
     """(reduced assembly, MatPtAP of the full-dof K) of the elastic tangent over every
     ``stride``-th owned cell (all by default; else a matrix of those cells' couplings alone)."""
     surface = case.surface
-    layout = block_layout(surface.n, surface.spacing, case.mesh)
     block = build_block(surface.heights, surface.spacing, case.mesh, comm)
     solid = Solid(block.mesh, case.material)
-    reduction = PeriodicReduction(solid.V, block, layout and layout.cells)
+    reduction = PeriodicReduction(solid.V, block)
     assert comm.allreduce(int(reduction.hanging.sum()), op=MPI.SUM) > 0
     assembler = ReducedAssembler(solid.V, reduction)
     cells = np.arange(0, solid.num_cells, stride, dtype=np.int32)

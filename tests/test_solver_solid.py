@@ -6,14 +6,12 @@ import pytest
 from dolfinx.fem import petsc as fem_petsc  # noqa: E402
 from mpi4py import MPI  # noqa: E402
 from petsc4py import PETSc  # noqa: E402
-from roughfriction.geometry.mesh import (  # noqa: E402
-    MeshOptions,
-    interpolation_masters,
-    mesh_size,
-)
+from roughfriction.geometry.adaptive import hanging_masters  # noqa: E402
+from roughfriction.geometry.mesh import MeshOptions  # noqa: E402
 from roughfriction.material import Material  # noqa: E402
 from roughfriction.solver import solid as solid_module  # noqa: E402
 from roughfriction.solver.block import build_block  # noqa: E402
+from roughfriction.solver.memory import block_size  # noqa: E402
 from roughfriction.solver.periodic import PeriodicReduction, dof_node_grid_index  # noqa: E402
 from roughfriction.solver.plasticity import radial_return, von_mises  # noqa: E402
 from roughfriction.solver.solid import Solid  # noqa: E402
@@ -165,7 +163,7 @@ def test_periodic_images_share_displacements_and_the_bottom_is_fixed(block):
     # above the bottom, a node layer's own dofs sit at the spacing of the cell layer below it
     assert reduction.num_reduced_global == sum((n // stride) ** 2 for stride in block.layer_stride)
     # the size estimate used to refuse oversized runs counts the same, without a mesh
-    cells, dofs = mesh_size(n, ONE_LEVEL)
+    cells, dofs = block_size(block.layout)
     assert (cells, dofs) == (block.mesh.topology.index_map(3).size_global,
                              3 * reduction.num_reduced_global)
 
@@ -177,7 +175,7 @@ def test_hanging_nodes_follow_the_coarse_faces_bilinearly(block):
     reduction, u, grid = random_reduced_field(block)
     n = block.n
     position = {(i % n, j % n, k): node for node, (i, j, k) in enumerate(grid)}
-    masters, weights = interpolation_masters(grid, block.layer_stride)
+    masters, weights = hanging_masters(grid, block.cells)
     hanging = np.flatnonzero(weights[:, 0] < 1.0)
     # the fine grid of the interface layer less the coarse corners, periodic images included
     assert MPI.COMM_WORLD.allreduce(len(hanging)) == (n + 1) ** 2 - (n // 2 + 1) ** 2
