@@ -28,8 +28,9 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from roughfriction.files import atomic_write
 from roughfriction.studies.certificate import BOUNDARY_FACTOR, LADDER_FACTOR, certify
+
+from benchmarks.calibration_set import write_rows
 
 #: Share of the cases the certificate must cover [-].
 COVERAGE = 0.9
@@ -193,15 +194,8 @@ def table_rows(cases: list[Case], ladder_factor: float = LADDER_FACTOR,
 
 
 def write_table(path: Path, rows: list[dict]) -> None:
-    """Write the rows as CSV (atomically), numbers to 6 significant digits."""
-    def write(temporary) -> None:
-        with open(temporary, "w", newline="") as file:
-            writer = csv.DictWriter(file, COLUMNS, extrasaction="ignore")
-            writer.writeheader()
-            for row in rows:
-                writer.writerow({key: f"{value:.6g}" if isinstance(value, float) else value
-                                 for key, value in row.items()})
-    atomic_write(Path(path), write)
+    """Write the judged rows as CSV (atomically), numbers to 6 significant digits."""
+    write_rows(path, rows, COLUMNS, digits=6)
 
 
 def main(argv: list[str] | None = None) -> int:

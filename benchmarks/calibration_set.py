@@ -46,15 +46,16 @@ def read_rows(path: Path) -> list[dict]:
         return []
 
 
-def write_rows(path: Path, rows: list[dict]) -> None:
-    """Write the rows as CSV (atomically), floats to 7 significant digits."""
+def write_rows(path: Path, rows: list[dict], columns=COLUMNS, digits: int = 7) -> None:
+    """Write the rows as CSV of ``columns`` (atomically), floats to ``digits`` significant
+    digits."""
     def write(temporary) -> None:
         with open(temporary, "w", newline="") as file:
-            writer = csv.DictWriter(file, COLUMNS, extrasaction="ignore")
+            writer = csv.DictWriter(file, columns, extrasaction="ignore")
             writer.writeheader()
             for row in rows:
-                writer.writerow({key: f"{value:.7g}" if isinstance(value, float) else value
-                                 for key, value in row.items()})
+                writer.writerow({key: f"{value:.{digits}g}" if isinstance(value, float)
+                                 else value for key, value in row.items()})
     atomic_write(Path(path), write)
 
 
