@@ -7,7 +7,8 @@ The table holds measured values only (mu_s, areas, contact counts, cost); the er
 under test is judged from it afterwards (``benchmarks.calibration``), so an estimate can change
 without re-running the set. Each window runs all its loads on one shared preload per level
 (``solver.run.run_loads``); rows are appended after every level (rank 0, atomically) and a
-window-level already in the table with today's physics is skipped, so a killed run resumes at
+window-level already in the table with today's physics (or physics an equivalence record
+beside the table carries to it) is skipped, so a killed run resumes at
 the level it was on.
 """
 
@@ -59,10 +60,12 @@ def write_rows(path: Path, rows: list[dict], columns=COLUMNS, digits: int = 7) -
     atomic_write(Path(path), write)
 
 
-def done(rows: list[dict], surface: str, window: int, level: int, stamp: str) -> bool:
-    """Whether the table holds the window's level with physics ``stamp``."""
+def done(rows: list[dict], surface: str, window: int, level: int, physics) -> bool:
+    """Whether the table holds the window's level made by this code's physics, or by earlier
+    physics an equivalence record carries to it (``physics``: a ``benchmarks.stamps.Physics``)."""
     return any(row["surface"] == surface and int(row["window"]) == window + 1
-               and int(row["level"]) == level and row["physics"] == stamp for row in rows)
+               and int(row["level"]) == level and physics.is_current(row["physics"])
+               for row in rows)
 
 
 def level_rows(surface: str, window: int, n: int, level: int, loads, runs, wall_s: float,
@@ -96,15 +99,17 @@ def run_set(path: Path, comm, windows=SET_WINDOWS, n: int = SET_N, loads=SET_LOA
     from roughfriction.geometry.generate import builtin_surface
     from roughfriction.solver.run import run_loads
     from roughfriction.studies.paper import surface_window
-    from roughfriction.studies.physics import physics_stamp, physics_version
     from roughfriction.studies.refinement import level_case
 
-    stamp = physics_stamp(physics_version())
+    from benchmarks.stamps import code_physics
+
+    physics = code_physics(Path(path).parent)
+    stamp = physics.today
     rows = read_rows(path)
     for surface, window in windows:
         case = FemCase(surface_window(builtin_surface(surface), n, window), Loading(loads[0]))
         for level in levels:
-            if done(rows, surface, window, level, stamp):
+            if done(rows, surface, window, level, physics):
                 continue
             started = time.perf_counter()
             runs = run_loads(level_case(case, level), loads, comm, progress=lambda record: None)

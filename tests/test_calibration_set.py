@@ -38,3 +38,16 @@ def test_a_small_case_runs_resumes_and_is_judged(tmp_path, monkeypatch):
     judged = calibration.judge(case, LADDER_FACTOR, BOUNDARY_FACTOR)
     assert judged["actual_error"] == pytest.approx(abs(float(rows[1]["mu_s"])
                                                        - float(rows[3]["mu_s"])))
+
+
+@pytest.mark.parametrize(("stamp", "expected"), [("bbbbbbbbbbbb", True), ("aaaaaaaaaaaa", True),
+                                                 ("cccccccccccc", False), ("", False)])
+def test_a_level_counts_as_done_when_its_physics_is_carried_to_this_code(stamp, expected):
+    """A row made by earlier physics that an equivalence record carries to today's is not
+    re-run; one of unrelated or unstamped physics is."""
+    from benchmarks.stamps import Physics
+
+    physics = Physics("bbbbbbbbbbbb", {"aaaaaaaaaaaa": "bbbbbbbbbbbb"})
+    rows = [{"surface": "G5", "window": "2", "level": "1", "physics": stamp}]
+    assert calibration_set.done(rows, "G5", 1, 1, physics) is expected
+    assert not calibration_set.done(rows, "G5", 1, 2, physics)
