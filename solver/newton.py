@@ -8,7 +8,8 @@ s = du.R - dh r of the step's energy, which damps contact and yield overshoot; a
 residual stops halving is abandoned (the step is then cut). A load step is converged
 when, after Uzawa updates of the contact multipliers (Newton stops at looser tolerances between
 updates), no contact point penetrates deeper than tol_g h. A step that only marks the path takes
-one update at its end instead, which the next step's solve absorbs (``CARRIED_PENETRATION``).
+one update at its end instead, which the next step's solve absorbs
+(``NewtonOptions.carried_penetration``). The settings are a :class:`NewtonOptions`.
 """
 
 from __future__ import annotations
@@ -21,60 +22,10 @@ import numpy as np
 from petsc4py import PETSc
 from roughfriction.solver.contact import ContactResponse
 from roughfriction.solver.linear import LinearSolveError
-from roughfriction.solver.reduced_system import SMALLEST_TOLERANCE
+from roughfriction.solver.newton_options import NewtonOptions
 
-#: Trial steps of a line search after the full Newton step, before the last is taken anyway [-].
-LINE_SEARCH_TRIALS = 5
-#: A line search accepts a step length a where the slope of the energy along the Newton step,
-#: s(a) = du.R(a) - dh r(a), has |s(a)| <= this times |s(0)| (s(1) <= it for the full step) [-].
-LINE_SEARCH_SLACK = 0.25
-#: Give a step up when ||R|| + |r| has not halved over this many iterations (stick/slip or
-#: open/closed cycling; the step is then cut) [-].
-STAGNATION_WINDOW = 4
-#: A Newton solve that stagnates with ||R||, |r| and max |du| within this factor of their
-#: tolerances, under the contact law itself, has reached the floor set by the inexact Krylov
-#: solves and the kinks of the contact law: it is accepted, not cut (Newton tolerances 1e-4
-#: and 1e-8 F_n give the same mu_s to 0.06 %). A solve to tolerances tighter than the path's
-#: (``UZAWA_RESIDUAL_TOLERANCE``) is accepted there as soon as its line search has cut a step:
-#: a kink lies between the iterate and the solution (a node at the edge of contact, whose shear
-#: cap follows its pressure; points at the yield surface), and Newton only halves the residual
-#: per iteration from there; and as soon as its residuals meet their tolerance: the forces are
-#: converged, and an increment still above its own lies along a direction they hardly
-#: constrain (slipping points on the cap's ramp make the exact tangent nearly singular) [-].
-RESIDUAL_FLOOR = 10.0
-#: Newton iterations with the contact law free; then the contact set is frozen until the
-#: iterate converges: its nodes stay in contact, and nodes that penetrate join it (the set
-#: only grows: no open/closed cycling, and a flat carried by a few yielding peaks cannot sink
-#: through open nodes it does not see); the iterate is accepted if it also meets the
-#: tolerances under the law itself, else the set is re-frozen at the law's set there (a primal
-#: active-set strategy). The slip set is not frozen: a frozen slipping point below the cap has
-#: a traction direction that jumps with a tiny trial vector [-].
-FREEZE_AFTER = 3
-#: Active-set rounds (freezes) per Newton solve [-]. Each round has its own budget of
-#: ``max_iterations``, and a new round is started only while fewer nodes change their contact
-#: state than at the last one (no cycling).
-MAX_ROUNDS = 5
-#: Newton solves between Uzawa updates stop at ||R||, |r| <= this times F_n and max |du| <=
-#: UZAWA_INCREMENT_TOLERANCE h (or the solver's tolerances if looser); once the penetration is
-#: within its tolerance, one more solve with the same multipliers meets the solver's
-#: tolerances (multipliers need an equilibrium only as good as their own error) [-].
-UZAWA_RESIDUAL_TOLERANCE = 1e-4
-UZAWA_INCREMENT_TOLERANCE = 1e-2
-#: A step that marks the path leaves its multiplier update to the next step while its deepest
-#: penetration is within this times the penetration tolerance; deeper (a penalty soft against
-#: the solid, e.g. a locking mesh), the update would shift the load the flat carries, and the
-#: step is re-solved [-].
-CARRIED_PENETRATION = 10.0
-#: Krylov tolerance = FORCING_FACTOR x (||R|| + |r|) / F_n, clipped to [FORCING_MIN, FORCING_MAX].
-FORCING_FACTOR = 0.1
-FORCING_MIN = SMALLEST_TOLERANCE
-FORCING_MAX = 1e-3
-#: ... but never tighter than FORCING_SAFEGUARD x the Newton tolerance / (||R|| + |r|) / F_n
-#: (at most FORCING_SAFEGUARD_MAX): a linear residual below the Newton tolerance is not needed
-#: to meet it (Eisenstat-Walker's safeguard; Kelley, Iterative Methods for Linear and Nonlinear
-#: Equations, 1995, Sec. 6.3) [-].
-FORCING_SAFEGUARD = 0.5
-FORCING_SAFEGUARD_MAX = 0.1
+#: The options of every solve that is not given its own.
+DEFAULT_OPTIONS = NewtonOptions()
 
 
 @dataclass(frozen=True)
@@ -100,7 +51,7 @@ class LoadStep:
         The step only marks the loading path to the state that is reported (a preload step
         that sliding follows, a sliding step before inception): it ends at the looser Newton
         tolerances of the solves between Uzawa updates, after one solve: if a node penetrates
-        deeper than the tolerance (but within ``CARRIED_PENETRATION`` times it), the
+        deeper than the tolerance (but within ``NewtonOptions.carried_penetration`` times it), the
         multipliers are updated and the update is carried into the next step, whose first
         solve absorbs it, instead of a re-solve here.
     exact_tangent : bool
@@ -168,23 +119,24 @@ class _Iterate:
         return self.residual**2 + self.force_error**2
 
 
-def line_search_step(slope: Callable[[float], float], initial_slope: float) -> float:
+def line_search_step(slope: Callable[[float], float], initial_slope: float,
+                     options: NewtonOptions = DEFAULT_OPTIONS) -> float:
     """Step length a in (0, 1] along a Newton step: the full step if the energy's slope there,
-    s(1), is <= ``LINE_SEARCH_SLACK`` |s(0)|, else a root of s bracketed in [0, 1], by the
+    s(1), is <= ``options.line_search_slack`` |s(0)|, else a root of s bracketed in [0, 1], by the
     secant through the last two trials (exact once both lie past a kink of s, e.g. a node that
     touches the flat) or bisection where that leaves the inner 80 % of the bracket, until
-    |s(a)| <= ``LINE_SEARCH_SLACK`` |s(0)| or ``LINE_SEARCH_TRIALS`` trials (the last is taken).
+    |s(a)| <= ``line_search_slack`` |s(0)| or ``line_search_trials`` trials (the last is taken).
 
     ``slope(a)`` moves the iterate to a and returns s(a) [J] (inf if the residual there is not
     finite); ``initial_slope`` is s(0) < 0 [J]. Returns the a of the last call of ``slope``.
     """
-    threshold = LINE_SEARCH_SLACK * abs(initial_slope)
+    threshold = options.line_search_slack * abs(initial_slope)
     low, high = 0.0, 1.0
     older, older_slope = 0.0, initial_slope
     last, last_slope = 1.0, slope(1.0)
     if last_slope <= threshold:
         return 1.0
-    for _ in range(LINE_SEARCH_TRIALS):
+    for _ in range(options.line_search_trials):
         step = np.nan
         if np.isfinite(older_slope) and np.isfinite(last_slope) and last_slope != older_slope:
             step = last - last_slope * (last - older) / (last_slope - older_slope)
@@ -202,29 +154,33 @@ def line_search_step(slope: Callable[[float], float], initial_slope: float) -> f
     return last
 
 
-def forcing_term(state: _Iterate, normal_force: float, residual_tolerance: float) -> float:
+def forcing_term(state: _Iterate, normal_force: float, residual_tolerance: float,
+                 options: NewtonOptions = DEFAULT_OPTIONS) -> float:
     """Relative Krylov tolerance of a Newton solve to ``residual_tolerance`` F_n, proportional
     to the relative nonlinear residual (inexact Newton, Eisenstat-Walker choice 2 with exponent
     1): loose far from the solution, tight near it, so convergence stays quadratic without
     over-solving early iterations, and never tighter than the Newton tolerance
     ``residual_tolerance`` needs (0: no such bound) [-]."""
     relative_residual = (state.residual + abs(state.force_error)) / normal_force
-    forcing = min(FORCING_MAX, max(FORCING_MIN, FORCING_FACTOR * relative_residual))
+    forcing = min(options.forcing_max,
+                  max(options.forcing_min, options.forcing_factor * relative_residual))
     if relative_residual == 0.0:
         return forcing
-    return max(forcing, min(FORCING_SAFEGUARD_MAX,
-                            FORCING_SAFEGUARD * residual_tolerance / relative_residual))
+    return max(forcing, min(options.forcing_safeguard_max,
+                            options.forcing_safeguard * residual_tolerance / relative_residual))
 
 
-def solve_load_step(equilibrium, step: LoadStep) -> NewtonReport:
+def solve_load_step(equilibrium, step: LoadStep, newton: NewtonOptions = DEFAULT_OPTIONS
+                    ) -> NewtonReport:
     """One load step on ``equilibrium`` (:class:`solver.equilibrium.Equilibrium`, from its
     current iterate): Newton solves (:class:`NewtonSolve`) with Uzawa updates of the contact
-    multipliers until no contact node penetrates deeper than the tolerance."""
+    multipliers until no contact node penetrates deeper than the tolerance (``newton``: the
+    driver's settings)."""
     options, flat = equilibrium.options, equilibrium.flat
     tolerance = options.penetration_tolerance * equilibrium.spacing
     tight = Tolerances(options.residual_tolerance, options.increment_tolerance)
-    tolerances = Tolerances(max(tight.residual, UZAWA_RESIDUAL_TOLERANCE),
-                            max(tight.increment, UZAWA_INCREMENT_TOLERANCE))
+    tolerances = Tolerances(max(tight.residual, newton.uzawa_residual_tolerance),
+                            max(tight.increment, newton.uzawa_increment_tolerance))
     if step.marks_path:
         tight = tolerances
     iterations = krylov = updates = solves = 0
@@ -232,7 +188,7 @@ def solve_load_step(equilibrium, step: LoadStep) -> NewtonReport:
     while True:
         # the tangential predictor belongs to the first solve of a step only
         predictor = step.predictor and step.friction and solves == 0
-        report = NewtonSolve(equilibrium, step, tolerances, predictor).run()
+        report = NewtonSolve(equilibrium, step, tolerances, predictor, newton).run()
         solves += 1
         iterations += report.iterations
         krylov += report.krylov_iterations
@@ -248,7 +204,7 @@ def solve_load_step(equilibrium, step: LoadStep) -> NewtonReport:
             break
         flat.augment(report.contact)
         updates += 1
-        carried = step.marks_path and penetration <= CARRIED_PENETRATION * tolerance
+        carried = step.marks_path and penetration <= newton.carried_penetration * tolerance
         if carried:
             break  # the next step's solve absorbs the update (commit keeps it)
     reason = report.reason
@@ -262,7 +218,8 @@ def solve_load_step(equilibrium, step: LoadStep) -> NewtonReport:
 class NewtonSolve:
     """Newton iterations from the current iterate of ``equilibrium`` with fixed multipliers
     until ||R||, |r| <= ``tolerances.residual`` F_n and max |du| <= ``tolerances.increment`` h
-    (``predictor``: start with the tangential predictor of :meth:`RigidFlat.respond`).
+    (``predictor``: start with the tangential predictor of :meth:`RigidFlat.respond`;
+    ``newton``: the driver's settings).
 
     The iterations start with the symmetric tangent (:attr:`RigidFlat.symmetric_tangent`:
     CG, and no stick/slip cycling driven by the cap's ramp) and go on with the exact one if
@@ -273,8 +230,10 @@ class NewtonSolve:
     tau_c / p_r is far above 1), that Newton step is taken with the symmetric one.
     """
 
-    def __init__(self, equilibrium, step: LoadStep, tolerances: Tolerances, predictor: bool):
+    def __init__(self, equilibrium, step: LoadStep, tolerances: Tolerances, predictor: bool,
+                 newton: NewtonOptions = DEFAULT_OPTIONS):
         self.equilibrium, self.step, self.predictor = equilibrium, step, predictor
+        self.newton = newton
         self.system, self.flat = equilibrium.system, equilibrium.flat
         self.max_iterations = equilibrium.options.max_iterations
         self.tolerance_force = tolerances.residual * step.normal_force
@@ -284,7 +243,7 @@ class NewtonSolve:
         # of ranks to round-off (GAMG's aggregates depend on the partition anyway)
         iterative = self.system.linear_solver.method == "iterative"
         self.safeguarded = tolerances.residual if iterative else 0.0
-        self.settles_on_kink = tolerances.residual < UZAWA_RESIDUAL_TOLERANCE  # RESIDUAL_FLOOR
+        self.settles_on_kink = tolerances.residual < newton.uzawa_residual_tolerance  # the floor
         self.active = None  # the frozen contact set of the nodes, or None
         self.increment, self.krylov = 0.0, 0
         self.cut = False  # the last line search cut the Newton step
@@ -327,12 +286,13 @@ class NewtonSolve:
             return self._report()
         state = self.state
         self.history.append(state.residual + abs(state.force_error))
-        self.stagnating = (len(self.history) > STAGNATION_WINDOW + 2
-                           and self.history[-1] > 0.5 * self.history[-1 - STAGNATION_WINDOW])
+        window = self.newton.stagnation_window
+        self.stagnating = (len(self.history) > window + 2
+                           and self.history[-1] > 0.5 * self.history[-1 - window])
         if not np.isfinite(state.merit):
             return self._report("residual not finite")
         if (self.stagnating or ((self.cut or self._forces_met(state)) and self.settles_on_kink
-                                and self._converged(state, RESIDUAL_FLOOR))):
+                                and self._converged(state, self.newton.residual_floor))):
             if self._at_floor():
                 return self._report()
         return None
@@ -347,7 +307,7 @@ class NewtonSolve:
             return ""
         previous, self.changes = self.changes, self.flat.count(
             self.state.contact.node_active != frozen)
-        if self.changes >= previous or self.rounds == MAX_ROUNDS:
+        if self.changes >= previous or self.rounds == self.newton.max_rounds:
             return (f"contact set cycling ({self.changes} nodes change state after "
                     f"{self.rounds} frozen round(s))")
         self.active = self.state.contact.node_active
@@ -357,13 +317,13 @@ class NewtonSolve:
         return ""
 
     def _at_floor(self) -> bool:
-        """The iterate is within ``RESIDUAL_FLOOR`` of the tolerances under the contact law
+        """The iterate is within ``residual_floor`` of the tolerances under the contact law
         itself (a frozen round goes on if not, unless it stagnates)."""
         frozen = self.active
         if frozen is not None:  # judge the floor under the contact law itself
             self.active = None
             self.state = self._evaluate(False)
-        if self._converged(self.state, RESIDUAL_FLOOR):
+        if self._converged(self.state, self.newton.residual_floor):
             return True
         if not self.stagnating:  # above the floor under the law: the frozen round goes on
             self.active = frozen
@@ -395,8 +355,8 @@ class NewtonSolve:
             self.limit = self.iteration + self.max_iterations
             return ""
         if self.stagnating:
-            return (f"residual not halved in {STAGNATION_WINDOW} iterations (stick/slip "
-                    f"or open/closed cycling; {self._where()})")
+            return (f"residual not halved in {self.newton.stagnation_window} iterations "
+                    f"(stick/slip or open/closed cycling; {self._where()})")
         if self.iteration == self.limit:
             return f"iteration limit {self.max_iterations} ({self._where()})"
         if self.flat.count(self.state.contact.node_active) == 0 and not self.step.hold_height:
@@ -404,7 +364,7 @@ class NewtonSolve:
             self.state = self._evaluate(self.predictor)
             self.increment = np.inf
             return ""
-        if self.iteration == FREEZE_AFTER and self.active is None:
+        if self.iteration == self.newton.freeze_after and self.active is None:
             self.active = self.state.contact.node_active
             self.rounds = 1
             self.history.clear()  # the frozen problem's residuals start their own record
@@ -418,7 +378,8 @@ class NewtonSolve:
         try:
             height_increment, its = system.bordered_solve(
                 self.state.force_error,
-                forcing_term(self.state, step.normal_force, self.safeguarded), step.hold_height)
+                forcing_term(self.state, step.normal_force, self.safeguarded, self.newton),
+                step.hold_height)
         except LinearSolveError as error:
             return str(error)
         self.krylov += its
@@ -480,10 +441,10 @@ class NewtonSolve:
             return 1.0
         initial_slope = system.x1.dot(system.residual) - height_increment * current.force_error
         if initial_slope < 0.0 and (not self.step.friction or self.flat.symmetric_tangent):
-            return line_search_step(slope, initial_slope)
+            return line_search_step(slope, initial_slope, self.newton)
         length = 1.0
         slope(length)
-        for _ in range(LINE_SEARCH_TRIALS):
+        for _ in range(self.newton.line_search_trials):
             if self.state.merit < current.merit:
                 break
             length *= 0.5

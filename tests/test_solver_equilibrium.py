@@ -42,7 +42,7 @@ def test_a_converged_step_is_one_newton_increment_from_the_solution(monkeypatch)
             force_error = (0.0 if step.hold_height
                            else self.flat.normal_force(report.contact) - step.normal_force)
             self.system.bordered_solve(force_error, 1e-12, step.hold_height)
-            tolerance = (newton_module.UZAWA_INCREMENT_TOLERANCE if step.marks_path
+            tolerance = (newton_module.DEFAULT_OPTIONS.uzawa_increment_tolerance if step.marks_path
                          else self.options.increment_tolerance)
             moves.append(self.system.x1.norm(PETSc.NormType.NORM_INFINITY)
                          / (tolerance * self.spacing))
@@ -134,11 +134,11 @@ def test_sliding_steps_before_inception_only_mark_the_path(only_mark_the_path):
 
 def test_a_step_that_marks_the_path_carries_its_multiplier_update(monkeypatch):
     """A step that marks the path (held preload, sliding before inception) is one Newton solve:
-    where a node penetrates deeper than the tolerance (within ``CARRIED_PENETRATION`` times
-    it: all of them here), the multipliers are updated to its pressures, and the next step
-    starts from them instead of a re-solve of this one. Steps solved to the end (the last
-    preload step, inception) still meet the penetration tolerance. G5 re-gridded to 16 x 16
-    at F* = 0.5."""
+    where a node penetrates deeper than the tolerance (within
+    ``NewtonOptions.carried_penetration`` times it: all of them here), the multipliers are
+    updated to its pressures, and the next step starts from them instead of a re-solve of this
+    one. Steps solved to the end (the last preload step, inception) still meet the penetration
+    tolerance. G5 re-gridded to 16 x 16 at F* = 0.5."""
     solve, newton = Equilibrium.solve, NewtonSolve.run
     calls, path_steps, final_steps = [0], [], []
 
