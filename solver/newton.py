@@ -17,6 +17,7 @@ from __future__ import annotations
 import itertools
 from collections.abc import Callable
 from dataclasses import dataclass
+from enum import Enum
 
 import numpy as np
 from petsc4py import PETSc
@@ -28,6 +29,44 @@ from roughfriction.solver.newton_options import NewtonOptions
 DEFAULT_OPTIONS = NewtonOptions()
 
 
+class Friction(Enum):
+    """The contact law of a load step and how its Newton solve starts.
+
+    ``NONE``: frictionless (the preload; t = 0). The frictional ones differ in their start:
+    ``PREDICTED``: the first solve starts with the tangential predictor of
+    :meth:`RigidFlat.respond` (the first sliding step); ``PLACED``: from the first iterate the
+    caller has placed; ``EXACT``: from there, with the exact tangent instead of the symmetric
+    one (:class:`NewtonSolve`; a step solved on where every node slips).
+    """
+
+    NONE = "none"
+    PREDICTED = "predicted"
+    PLACED = "placed"
+    EXACT = "exact"
+
+
+class Control(Enum):
+    """What holds the flat in a load step: ``FORCE`` solves for the height h that carries
+    F_n; ``HEIGHT`` keeps the current h (displacement control: one linear solve per Newton
+    iteration, and no limit point while a few yielding peaks carry the flat)."""
+
+    FORCE = "force"
+    HEIGHT = "height"
+
+
+class Finish(Enum):
+    """Where a load step ends: ``TOLERANCES``, at the solver's tolerances; ``PATH``, a step
+    that only marks the loading path to the state that is reported (a preload step that
+    sliding follows, a sliding step before inception): at the looser Newton tolerances of the
+    solves between Uzawa updates, after one solve: if a node penetrates deeper than the
+    tolerance (but within ``NewtonOptions.carried_penetration`` times it), the multipliers are
+    updated and the update is carried into the next step, whose first solve absorbs it,
+    instead of a re-solve here."""
+
+    TOLERANCES = "tolerances"
+    PATH = "path"
+
+
 @dataclass(frozen=True)
 class LoadStep:
     """One load step and how it is solved.
@@ -35,37 +74,55 @@ class LoadStep:
     Attributes
     ----------
     normal_force : float
-        F_n to hold [N]; with ``hold_height``, only the force scale of the tolerances.
+        F_n to hold [N]; under ``Control.HEIGHT``, only the force scale of the tolerances.
     flat_slide : float
-        The flat's x displacement U [m].
-    friction : bool
-        Frictional contact (tangential phase) or frictionless (preload).
-    hold_height : bool
-        Keep the flat at its current height h (displacement control: one linear solve per
-        Newton iteration, and no limit point while a few yielding peaks carry the flat)
-        instead of solving for the h that carries ``normal_force``.
-    predictor : bool
-        A tangential step's first solve starts with the tangential predictor of
-        :meth:`RigidFlat.respond` (False: the caller has placed a first iterate).
-    marks_path : bool
-        The step only marks the loading path to the state that is reported (a preload step
-        that sliding follows, a sliding step before inception): it ends at the looser Newton
-        tolerances of the solves between Uzawa updates, after one solve: if a node penetrates
-        deeper than the tolerance (but within ``NewtonOptions.carried_penetration`` times it), the
-        multipliers are updated and the update is carried into the next step, whose first
-        solve absorbs it, instead of a re-solve here.
-    exact_tangent : bool
-        Newton starts with the exact tangent instead of the symmetric one
-        (:class:`NewtonSolve`).
+        The flat's x displacement U [m] (0 without friction: it would act on nothing).
+    friction : Friction
+        Frictionless, or frictional and how Newton starts.
+    control : Control
+        Force or height control of the flat.
+    finish : Finish
+        Solved to the tolerances, or only marking the path.
     """
 
     normal_force: float
     flat_slide: float = 0.0
-    friction: bool = False
-    hold_height: bool = False
-    predictor: bool = True
-    marks_path: bool = False
-    exact_tangent: bool = False
+    friction: Friction = Friction.NONE
+    control: Control = Control.FORCE
+    finish: Finish = Finish.TOLERANCES
+
+    def __post_init__(self):
+        for name, kind in (("friction", Friction), ("control", Control), ("finish", Finish)):
+            if not isinstance(getattr(self, name), kind):
+                raise TypeError(f"LoadStep.{name} must be a {kind.__name__}, "
+                                f"not {getattr(self, name)!r}")
+        if self.friction is Friction.NONE and self.flat_slide != 0.0:
+            raise ValueError("a frictionless load step has no flat slide")
+
+    @property
+    def frictional(self) -> bool:
+        """Frictional contact (the tangential phase)."""
+        return self.friction is not Friction.NONE
+
+    @property
+    def predictor(self) -> bool:
+        """The first solve starts with the tangential predictor."""
+        return self.friction is Friction.PREDICTED
+
+    @property
+    def exact_tangent(self) -> bool:
+        """Newton starts with the exact tangent."""
+        return self.friction is Friction.EXACT
+
+    @property
+    def hold_height(self) -> bool:
+        """The flat is held at its height."""
+        return self.control is Control.HEIGHT
+
+    @property
+    def marks_path(self) -> bool:
+        """The step only marks the path."""
+        return self.finish is Finish.PATH
 
 
 @dataclass(frozen=True)
@@ -187,7 +244,7 @@ def solve_load_step(equilibrium, step: LoadStep, newton: NewtonOptions = DEFAULT
     carried = False  # the last update is left to the next step
     while True:
         # the tangential predictor belongs to the first solve of a step only
-        predictor = step.predictor and step.friction and solves == 0
+        predictor = step.predictor and solves == 0
         report = NewtonSolve(equilibrium, step, tolerances, predictor, newton).run()
         solves += 1
         iterations += report.iterations
@@ -403,7 +460,7 @@ class NewtonSolve:
     def _evaluate(self, predictor: bool) -> _Iterate:
         """Assemble at the current iterate and measure its residuals."""
         step = self.step
-        contact = self.equilibrium.assemble(step.flat_slide, step.friction, predictor,
+        contact = self.equilibrium.assemble(step.flat_slide, step.frictional, predictor,
                                             self.active)
         force_error = (0.0 if step.hold_height
                        else self.flat.normal_force(contact) - step.normal_force)
@@ -440,7 +497,7 @@ class NewtonSolve:
             slope(1.0)
             return 1.0
         initial_slope = system.x1.dot(system.residual) - height_increment * current.force_error
-        if initial_slope < 0.0 and (not self.step.friction or self.flat.symmetric_tangent):
+        if initial_slope < 0.0 and (not self.step.frictional or self.flat.symmetric_tangent):
             return line_search_step(slope, initial_slope, self.newton)
         length = 1.0
         slope(length)

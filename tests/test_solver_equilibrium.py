@@ -12,7 +12,7 @@ from roughfriction.geometry.surface import Surface, surface_on_fem_grid  # noqa:
 from roughfriction.solver import newton as newton_module  # noqa: E402
 from roughfriction.solver.contact import RigidFlat  # noqa: E402
 from roughfriction.solver.equilibrium import Equilibrium  # noqa: E402
-from roughfriction.solver.newton import LoadStep, NewtonSolve  # noqa: E402
+from roughfriction.solver.newton import Control, LoadStep, NewtonSolve  # noqa: E402
 from roughfriction.solver.reduced_system import ReducedSystem  # noqa: E402
 from roughfriction.solver.run import run  # noqa: E402
 from roughfriction.solver.stepping import LoadPath  # noqa: E402
@@ -37,7 +37,7 @@ def test_a_converged_step_is_one_newton_increment_from_the_solution(monkeypatch)
         if step.marks_path:
             self.flat.multiplier = solved_with
         if report.converged and report.iterations > 0:
-            self.assemble(step.flat_slide, step.friction)
+            self.assemble(step.flat_slide, step.frictional)
             self.assemble_tangent(report.contact)
             force_error = (0.0 if step.hold_height
                            else self.flat.normal_force(report.contact) - step.normal_force)
@@ -74,7 +74,7 @@ def test_the_path_slope_is_the_derivative_of_the_held_force(monkeypatch, only_ma
         slope = equilibrium.path_slope()
         height_change = 1e-3 * self.normal_force / slope
         equilibrium.flat_height += height_change  # (u from the committed step: Newton's work)
-        report = equilibrium.solve(LoadStep(aim, hold_height=True))
+        report = equilibrium.solve(LoadStep(aim, control=Control.HEIGHT))
         assert report.converged, report.reason
         force = equilibrium.flat.normal_force(report.contact)
         slopes.append(((force - self.normal_force) / height_change, slope))
@@ -272,7 +272,7 @@ def test_the_frictionless_newton_steps_descend_the_energy(monkeypatch):
     original = NewtonSolve._line_search
 
     def recorded(self, height_increment):
-        if not self.step.friction:
+        if not self.step.frictional:
             slopes[self.step.hold_height].append(
                 self.system.x1.dot(self.system.residual)
                 - height_increment * self.state.force_error)

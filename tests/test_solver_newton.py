@@ -8,7 +8,13 @@ import numpy as np
 import pytest
 from roughfriction.case import SolverOptions  # noqa: E402
 from roughfriction.solver import newton as newton_module  # noqa: E402
-from roughfriction.solver.newton import LoadStep, NewtonSolve, Tolerances  # noqa: E402
+from roughfriction.solver.newton import (  # noqa: E402
+    Control,
+    Friction,
+    LoadStep,
+    NewtonSolve,
+    Tolerances,
+)
 
 pytestmark = pytest.mark.fem
 
@@ -46,7 +52,7 @@ class ScriptedNewton(NewtonSolve):
             system=system, options=SolverOptions(), spacing=1.0,
             flat=SimpleNamespace(symmetric_tangent=True, count=np.count_nonzero),
             assemble_tangent=lambda contact: None)
-        super().__init__(equilibrium, LoadStep(1.0, 0.0, friction=True, hold_height=True),
+        super().__init__(equilibrium, LoadStep(1.0, 0.0, Friction.PREDICTED, Control.HEIGHT),
                          Tolerances(tolerance, 1e-4), predictor=False)
         self._scripted = self._iterate(start)
         self._script = list(script)
@@ -162,3 +168,16 @@ def test_a_line_search_bisects_where_the_residual_is_not_finite():
         return np.inf if step > 0.6 else -1.0 + 2.0 * step
     step = newton_module.line_search_step(slope, -1.0)
     assert abs(slope(step)) <= newton_module.DEFAULT_OPTIONS.line_search_slack
+
+
+def test_a_load_step_is_made_of_named_choices_and_refuses_meaningless_ones():
+    """LoadStep's choices are enums (a bare flag is refused) and a frictionless step has no
+    slide; the choices read back as the predicates the solver uses."""
+    with pytest.raises(TypeError):
+        LoadStep(1.0, 0.0, True)
+    with pytest.raises(ValueError):
+        LoadStep(1.0, 1e-9)
+    step = LoadStep(1.0, 1e-9, Friction.EXACT, Control.HEIGHT, newton_module.Finish.PATH)
+    assert (step.frictional, step.predictor, step.exact_tangent, step.hold_height,
+            step.marks_path) == (True, False, True, True, True)
+    assert not LoadStep(1.0).frictional and LoadStep(1.0, 0.0, Friction.PREDICTED).predictor
