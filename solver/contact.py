@@ -33,7 +33,7 @@ node's weighted gap involves its 9 neighbours, so the tangent couples a node to 
 within 2 grid steps (``NEIGHBOURS``); on faces of varying width to the nodes of the pattern
 ``RigidFlat.neighbours``. A slipping point below p_r couples its traction to its node's pressure
 (dt/dp = tau_c / p_r along the slip): that part is not symmetric (``ContactResponse.symmetric``),
-and a Newton solver may leave it out (``RigidFlat.symmetric_tangent``).
+and a Newton solver may leave it out (``Trial.tangent``).
 
 Stick before slide: at the first Newton iterate of a tangential step, points that stuck at the
 last converged step keep the uncapped stick law (tangential predictor). A point out of contact at
@@ -53,6 +53,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from enum import Enum
 from functools import cache, cached_property
 
 import numpy as np
@@ -224,6 +225,43 @@ def first_occurrences(neighbours: np.ndarray) -> np.ndarray:
     return first
 
 
+class Tangent(Enum):
+    """The contact tangent of a trial: ``EXACT``, or ``SYMMETRIC``: the ramp's coupling dt/dp
+    left out (an approximate, symmetric Newton tangent; the residual keeps the law exactly)."""
+
+    EXACT = "exact"
+    SYMMETRIC = "symmetric"
+
+
+@dataclass(frozen=True, eq=False)
+class Trial:
+    """How the contact law is evaluated at a trial state (:meth:`RigidFlat.respond`).
+
+    Attributes
+    ----------
+    friction : bool
+        Frictional (tangential phase) or frictionless (normal preload).
+    predictor : bool
+        Stick law without cap for points that stuck at the last converged step.
+    active : numpy.ndarray or None
+        Frozen contact set of the nodes, bool (N^2,): these carry lambda_a - eps_N g~_a even
+        if it is negative; the others join when they penetrate (the set only grows: no
+        cycling; the caller judges a converged iterate under the free law). None: the law
+        decides.
+    tangent : Tangent
+        Exact or symmetric tangent.
+    """
+
+    friction: bool = False
+    predictor: bool = False
+    active: np.ndarray | None = None
+    tangent: Tangent = Tangent.EXACT
+
+
+#: Frictionless, the law's contact set: the trial of the preload's path predictor.
+FRICTIONLESS = Trial()
+
+
 @dataclass(frozen=True)
 class ContactResponse:
     """Contact state at the nodes and integration points a rank evaluates, and its nodal forces
@@ -263,7 +301,7 @@ class ContactResponse:
         Some slipping point couples its traction to its pressure (below p_r).
     symmetric : bool
         The tangent is symmetric: no coupling, or its coupling left out
-        (:attr:`RigidFlat.symmetric_tangent`).
+        (``Tangent.SYMMETRIC``).
     """
 
     gap: np.ndarray
@@ -366,9 +404,6 @@ class RigidFlat:
         The history of the last converged step.
     multiplier : numpy.ndarray
         The current multipliers lambda_a [Pa] (Uzawa updates them within a step).
-    symmetric_tangent : bool
-        Leave the ramp's coupling dt/dp out of the tangent (an approximate, symmetric Newton
-        tangent; the residual keeps the law exactly). False by default.
     """
 
     def __init__(self, comm, nodes: np.ndarray, grid_index: np.ndarray, grid_size: int,
@@ -379,7 +414,6 @@ class RigidFlat:
         self.grid_size = n = grid_size
         self.spacing = spacing
         self.law = law
-        self.symmetric_tangent = False  # see the class docstring
         self.owned_grid = grid_index[:, 0] * n + grid_index[:, 1]  # grid node of each owned node
         self._gathered_grid = np.concatenate(comm.allgather(self.owned_grid))
         faces = surface_faces(n, cells)
@@ -470,8 +504,7 @@ class RigidFlat:
     # --- the contact law ------------------------------------------------------------------------
 
     def respond(self, displacement: np.ndarray, flat_height: float, flat_slide: float,
-                friction: bool, predictor: bool = False, active: np.ndarray | None = None
-                ) -> ContactResponse:
+                trial: Trial = FRICTIONLESS) -> ContactResponse:
         """Contact state of all nodes and integration points for a trial displacement and flat
         position.
 
@@ -483,25 +516,20 @@ class RigidFlat:
             h [m].
         flat_slide : float
             U, the flat's x displacement [m].
-        friction : bool
-            Frictional (tangential phase) or frictionless (normal preload).
-        predictor : bool
-            Stick law without cap for points that stuck at the last converged step.
-        active : numpy.ndarray, optional
-            Frozen contact set of the nodes, bool (N^2,): these carry lambda_a - eps_N g~_a even
-            if it is negative; the others join when they penetrate (the set only grows: no
-            cycling; the caller judges a converged iterate under the free law).
+        trial : Trial
+            Friction, predictor, frozen set and tangent (default: frictionless, the law's
+            contact set, the exact tangent).
         """
         law, history = self.law, self.committed
         u = self.interpolate(self.gather_nodes(displacement[self.nodes]))
         gap = flat_height - (self.heights + u[:, 2])
         node_gap = self._tributary @ gap
-        node_pressure, node_active = law.pressure(self.multiplier, node_gap, active)
+        node_pressure, node_active = law.pressure(self.multiplier, node_gap, trial.active)
         pressure = self._point_pressure @ node_pressure  # < 0 only under a frozen node
         in_contact = pressure > 0.0
         relative = np.column_stack([flat_slide - u[:, 0], -u[:, 1]])  # w [m]
-        frictional = in_contact & friction & history.anchored
-        capped = history.slipped if predictor else frictional
+        frictional = in_contact & trial.friction & history.anchored
+        capped = history.slipped if trial.predictor else frictional
         shear = law.friction(relative - history.stick_offset, pressure, frictional, capped)
 
         stiffness = law.pressure_stiffness(node_active)
@@ -509,7 +537,7 @@ class RigidFlat:
         # below p_r a slipping point's traction c(p) n follows its pressure
         coupling = law.pressure_coupling(shear, pressure)  # dc/dp n [-]
         coupled = bool(np.any(coupling))
-        if self.symmetric_tangent:
+        if trial.tangent is Tangent.SYMMETRIC:
             coupling = np.zeros_like(coupling)
         height_derivative = np.column_stack([-coupling * pressure_height[:, None],
                                              pressure_height])

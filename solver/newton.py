@@ -14,6 +14,7 @@ one update at its end instead, which the next step's solve absorbs
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -21,7 +22,7 @@ from enum import Enum
 
 import numpy as np
 from petsc4py import PETSc
-from roughfriction.solver.contact import ContactResponse
+from roughfriction.solver.contact import ContactResponse, Tangent, Trial
 from roughfriction.solver.linear import LinearSolveError
 from roughfriction.solver.newton_options import NewtonOptions
 
@@ -272,19 +273,44 @@ def solve_load_step(equilibrium, step: LoadStep, newton: NewtonOptions = DEFAULT
     return NewtonReport(not reason, iterations, krylov, report.residual, report.contact, reason)
 
 
+@dataclass(frozen=True)
+class _Floor:
+    """The floor judged under the contact law (:meth:`NewtonSolve._at_floor`): whether the
+    solve stops there, and the trial and iterate it stops or goes on with."""
+
+    reached: bool
+    trial: Trial
+    state: _Iterate
+
+
+@dataclass(frozen=True)
+class _Settled:
+    """A frozen set's converged iterate judged under the contact law
+    (:meth:`NewtonSolve._settle_frozen_set`): the trial and iterate to go on with, the nodes
+    that changed their contact state, whether a new frozen round starts, and why the solve
+    fails if the set cycles ("" else)."""
+
+    trial: Trial
+    state: _Iterate
+    changes: float
+    new_round: bool
+    reason: str
+
+
 class NewtonSolve:
     """Newton iterations from the current iterate of ``equilibrium`` with fixed multipliers
     until ||R||, |r| <= ``tolerances.residual`` F_n and max |du| <= ``tolerances.increment`` h
     (``predictor``: start with the tangential predictor of :meth:`RigidFlat.respond`;
     ``newton``: the driver's settings).
 
-    The iterations start with the symmetric tangent (:attr:`RigidFlat.symmetric_tangent`:
-    CG, and no stick/slip cycling driven by the cap's ramp) and go on with the exact one if
-    they stagnate or reach the iteration limit while slipping points sit on the ramp (the
-    symmetric tangent then converges only linearly); with ``step.exact_tangent`` they start
-    with the exact one. Where the exact tangent says that lowering the flat would unload it
-    (dr/dh >= 0: singular, through the ramp's coupling, whose friction coefficient
-    tau_c / p_r is far above 1), that Newton step is taken with the symmetric one.
+    The iterations start with the symmetric tangent (``Tangent.SYMMETRIC`` in the
+    :class:`Trial` of the contact: CG, and no stick/slip cycling driven by the cap's ramp) and
+    go on with the exact one if they stagnate or reach the iteration limit while slipping
+    points sit on the ramp (the symmetric tangent then converges only linearly); with
+    ``Friction.EXACT`` they start with the exact one. Where the exact tangent says that
+    lowering the flat would unload it (dr/dh >= 0: singular, through the ramp's coupling, whose
+    friction coefficient tau_c / p_r is far above 1), that Newton step is taken with the
+    symmetric one.
     """
 
     def __init__(self, equilibrium, step: LoadStep, tolerances: Tolerances, predictor: bool,
@@ -301,7 +327,9 @@ class NewtonSolve:
         iterative = self.system.linear_solver.method == "iterative"
         self.safeguarded = tolerances.residual if iterative else 0.0
         self.settles_on_kink = tolerances.residual < newton.uzawa_residual_tolerance  # the floor
-        self.active = None  # the frozen contact set of the nodes, or None
+        # how the contact is evaluated: friction, the frozen set (None: the law's) and tangent
+        self.trial = Trial(step.frictional, tangent=(Tangent.EXACT if step.exact_tangent
+                                                     else Tangent.SYMMETRIC))
         self.increment, self.krylov = 0.0, 0
         self.cut = False  # the last line search cut the Newton step
         self.singular = False  # the exact tangent was singular at this iterate
@@ -311,16 +339,33 @@ class NewtonSolve:
         self.state = None
 
     def run(self) -> NewtonReport:
-        """Iterate to convergence or failure."""
-        self.flat.symmetric_tangent = not self.step.exact_tangent
-        self.state = self._evaluate(self.predictor)
+        """Iterate to convergence or failure: at each iterate, settle a converged frozen set,
+        stop if converged, failed or at the floor, else advance."""
+        self.state = self._evaluate(self._first_trial())
         for self.iteration in itertools.count():
-            report = self._judge()
-            if report is not None:
-                return report
+            if self._converged(self.state) and self.trial.active is not None:
+                settled = self._settle_frozen_set()
+                self._apply(settled)
+                if settled.reason:
+                    return self._report(settled.reason)
+            if self._converged(self.state) and self.trial.active is None:
+                return self._report()
+            self._record(self.state)
+            if not np.isfinite(self.state.merit):
+                return self._report("residual not finite")
+            if self._near_floor(self.state):
+                floor = self._at_floor()
+                self.trial, self.state = floor.trial, floor.state
+                if floor.reached:
+                    return self._report()
             reason = self._advance()
             if reason:
                 return self._report(reason)
+
+    def _first_trial(self) -> Trial:
+        """The trial of a first iterate: with the tangential predictor while the solve has
+        taken no Newton step from it."""
+        return dataclasses.replace(self.trial, predictor=self.predictor)
 
     # --- judging an iterate -------------------------------------------------------------------
 
@@ -332,60 +377,60 @@ class NewtonSolve:
         return (not self.predictor and self._forces_met(state, factor)
                 and self.increment <= factor * self.tolerance_increment)
 
-    def _judge(self) -> NewtonReport | None:
-        """The report to stop with at the current iterate (converged, at the floor, or failed),
-        else None."""
-        if self._converged(self.state) and self.active is not None:
-            reason = self._settle_frozen_set()
-            if reason:
-                return self._report(reason)
-        if self._converged(self.state) and self.active is None:
-            return self._report()
-        state = self.state
+    def _record(self, state: _Iterate) -> None:
+        """Add ||R|| + |r| of ``state`` to the history and note whether the solve stagnates
+        (not halved over ``stagnation_window`` iterations)."""
         self.history.append(state.residual + abs(state.force_error))
         window = self.newton.stagnation_window
         self.stagnating = (len(self.history) > window + 2
                            and self.history[-1] > 0.5 * self.history[-1 - window])
-        if not np.isfinite(state.merit):
-            return self._report("residual not finite")
-        if (self.stagnating or ((self.cut or self._forces_met(state)) and self.settles_on_kink
-                                and self._converged(state, self.newton.residual_floor))):
-            if self._at_floor():
-                return self._report()
-        return None
 
-    def _settle_frozen_set(self) -> str:
+    def _near_floor(self, state: _Iterate) -> bool:
+        """The iterate is worth judging at the floor: the solve stagnates, or, to tolerances
+        tighter than the path's, it is within ``residual_floor`` of them after a cut step or
+        with its forces met."""
+        return (self.stagnating or ((self.cut or self._forces_met(state)) and self.settles_on_kink
+                                    and self._converged(state, self.newton.residual_floor)))
+
+    def _settle_frozen_set(self) -> _Settled:
         """Converged with a frozen set: judge the iterate by the contact law itself (nodes that
         flip at a negligible force no longer cycle), else re-freeze at the law's set there for
-        a new round while the set settles. Returns why not, if the set cycles ("" else)."""
-        frozen, self.active = self.active, None
-        self.state = self._evaluate(False)
-        if self._converged(self.state):
-            return ""
-        previous, self.changes = self.changes, self.flat.count(
-            self.state.contact.node_active != frozen)
-        if self.changes >= previous or self.rounds == self.newton.max_rounds:
-            return (f"contact set cycling ({self.changes} nodes change state after "
-                    f"{self.rounds} frozen round(s))")
-        self.active = self.state.contact.node_active
-        self.rounds += 1
-        self.limit = self.iteration + self.max_iterations
-        self.history.clear()
-        return ""
+        a new round while the set settles; fails if the set cycles."""
+        frozen, free = self.trial.active, dataclasses.replace(self.trial, active=None)
+        state = self._evaluate(free)
+        if self._converged(state):
+            return _Settled(free, state, self.changes, False, "")
+        changes = self.flat.count(state.contact.node_active != frozen)
+        if changes >= self.changes or self.rounds == self.newton.max_rounds:
+            return _Settled(free, state, changes, False,
+                            f"contact set cycling ({changes} nodes change state after "
+                            f"{self.rounds} frozen round(s))")
+        refrozen = dataclasses.replace(self.trial, active=state.contact.node_active)
+        return _Settled(refrozen, state, changes, True, "")
 
-    def _at_floor(self) -> bool:
-        """The iterate is within ``residual_floor`` of the tolerances under the contact law
-        itself (a frozen round goes on if not, unless it stagnates)."""
-        frozen = self.active
+    def _apply(self, settled: _Settled) -> None:
+        """Go on from a :meth:`_settle_frozen_set`: its trial and iterate, and for a new round
+        its own iteration budget and residual record."""
+        self.trial, self.state, self.changes = settled.trial, settled.state, settled.changes
+        if settled.new_round:
+            self.rounds += 1
+            self.limit = self.iteration + self.max_iterations
+            self.history.clear()
+
+    def _at_floor(self) -> _Floor:
+        """Whether the iterate is within ``residual_floor`` of the tolerances under the contact
+        law itself, with the trial and iterate to go on with: under the law if it is, or if the
+        solve stagnates; else (a frozen round goes on) under the frozen set again."""
+        frozen, trial, state = self.trial.active, self.trial, self.state
         if frozen is not None:  # judge the floor under the contact law itself
-            self.active = None
-            self.state = self._evaluate(False)
-        if self._converged(self.state, self.newton.residual_floor):
-            return True
+            trial = dataclasses.replace(trial, active=None)
+            state = self._evaluate(trial)
+        if self._converged(state, self.newton.residual_floor):
+            return _Floor(True, trial, state)
         if not self.stagnating:  # above the floor under the law: the frozen round goes on
-            self.active = frozen
-            self.state = self._evaluate(False)
-        return False
+            trial = dataclasses.replace(trial, active=frozen)
+            state = self._evaluate(trial)
+        return _Floor(False, trial, state)
 
     def _where(self) -> str:
         state, normal_force = self.state, self.step.normal_force
@@ -403,11 +448,12 @@ class NewtonSolve:
     def _advance(self) -> str:
         """One Newton iteration, or a change of tangent or of the flat's height; returns why
         the solve fails ("" if it goes on)."""
-        if ((self.stagnating or self.iteration == self.limit) and self.flat.symmetric_tangent
-                and self.system.coupled and not self.singular):
+        if ((self.stagnating or self.iteration == self.limit)
+                and self.trial.tangent is Tangent.SYMMETRIC and self.system.coupled
+                and not self.singular):
             # slipping points on the cap's ramp: go on with the exact tangent
-            self.flat.symmetric_tangent = False
-            self.state = self._evaluate(False)
+            self.trial = dataclasses.replace(self.trial, tangent=Tangent.EXACT)
+            self.state = self._evaluate(self.trial)
             self.history.clear()
             self.limit = self.iteration + self.max_iterations
             return ""
@@ -418,11 +464,11 @@ class NewtonSolve:
             return f"iteration limit {self.max_iterations} ({self._where()})"
         if self.flat.count(self.state.contact.node_active) == 0 and not self.step.hold_height:
             self.equilibrium.place_flat(self.step.normal_force)
-            self.state = self._evaluate(self.predictor)
+            self.state = self._evaluate(self._first_trial())
             self.increment = np.inf
             return ""
-        if self.iteration == self.newton.freeze_after and self.active is None:
-            self.active = self.state.contact.node_active
+        if self.iteration == self.newton.freeze_after and self.trial.active is None:
+            self.trial = dataclasses.replace(self.trial, active=self.state.contact.node_active)
             self.rounds = 1
             self.history.clear()  # the frozen problem's residuals start their own record
         return self._newton_step()
@@ -443,25 +489,27 @@ class NewtonSolve:
         if not (step.hold_height or system.symmetric) and system.height_slope() >= 0.0:
             # lowering the flat would unload it: the exact tangent is singular here (the
             # ramp's coupling); this Newton step is taken with the symmetric one instead
-            self.flat.symmetric_tangent, self.singular = True, True
-            self.state = self._evaluate(False)
+            self.trial = dataclasses.replace(self.trial, tangent=Tangent.SYMMETRIC)
+            self.singular = True
+            self.state = self._evaluate(self.trial)
             return ""
         length = self._line_search(height_increment)
         self.increment = length * system.x1.norm(PETSc.NormType.NORM_INFINITY)
         self.cut = length < 1.0
         self.predictor = False
         if self.singular:  # back to the exact tangent
-            self.flat.symmetric_tangent, self.singular = False, False
-            self.state = self._evaluate(False)
-        if self.active is not None:  # nodes that entered contact stay in this round
-            self.active = self.state.contact.node_active
+            self.trial = dataclasses.replace(self.trial, tangent=Tangent.EXACT)
+            self.singular = False
+            self.state = self._evaluate(self.trial)
+        if self.trial.active is not None:  # nodes that entered contact stay in this round
+            self.trial = dataclasses.replace(self.trial, active=self.state.contact.node_active)
         return ""
 
-    def _evaluate(self, predictor: bool) -> _Iterate:
-        """Assemble at the current iterate and measure its residuals."""
+    def _evaluate(self, trial: Trial) -> _Iterate:
+        """Assemble at the current iterate, the contact evaluated as ``trial`` says, and
+        measure its residuals."""
         step = self.step
-        contact = self.equilibrium.assemble(step.flat_slide, step.frictional, predictor,
-                                            self.active)
+        contact = self.equilibrium.assemble(step.flat_slide, trial)
         force_error = (0.0 if step.hold_height
                        else self.flat.normal_force(contact) - step.normal_force)
         return _Iterate(contact, self.system.residual.norm(), force_error)
@@ -488,7 +536,7 @@ class NewtonSolve:
             nonlocal position
             self.equilibrium.advance(length - position, height_increment)
             position = length
-            self.state = self._evaluate(False)
+            self.state = self._evaluate(self.trial)
             if not np.isfinite(self.state.merit):
                 return np.inf
             return system.x1.dot(system.residual) - height_increment * self.state.force_error
@@ -497,7 +545,8 @@ class NewtonSolve:
             slope(1.0)
             return 1.0
         initial_slope = system.x1.dot(system.residual) - height_increment * current.force_error
-        if initial_slope < 0.0 and (not self.step.frictional or self.flat.symmetric_tangent):
+        symmetric = self.trial.tangent is Tangent.SYMMETRIC
+        if initial_slope < 0.0 and (not self.step.frictional or symmetric):
             return line_search_step(slope, initial_slope, self.newton)
         length = 1.0
         slope(length)

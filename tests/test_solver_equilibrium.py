@@ -10,7 +10,7 @@ from roughfriction.case import FemCase, Loading, SolverOptions  # noqa: E402
 from roughfriction.geometry.generate import builtin_surface  # noqa: E402
 from roughfriction.geometry.surface import Surface, surface_on_fem_grid  # noqa: E402
 from roughfriction.solver import newton as newton_module  # noqa: E402
-from roughfriction.solver.contact import RigidFlat  # noqa: E402
+from roughfriction.solver.contact import FRICTIONLESS, RigidFlat, Tangent, Trial  # noqa: E402
 from roughfriction.solver.equilibrium import Equilibrium  # noqa: E402
 from roughfriction.solver.newton import Control, LoadStep, NewtonSolve  # noqa: E402
 from roughfriction.solver.reduced_system import ReducedSystem  # noqa: E402
@@ -37,7 +37,7 @@ def test_a_converged_step_is_one_newton_increment_from_the_solution(monkeypatch)
         if step.marks_path:
             self.flat.multiplier = solved_with
         if report.converged and report.iterations > 0:
-            self.assemble(step.flat_slide, step.frictional)
+            self.assemble(step.flat_slide, Trial(step.frictional))
             self.assemble_tangent(report.contact)
             force_error = (0.0 if step.hold_height
                            else self.flat.normal_force(report.contact) - step.normal_force)
@@ -180,9 +180,9 @@ def test_sliding_goes_on_with_the_exact_tangent_where_the_symmetric_one_stalls(m
     exact_while_coupled = []
     respond = RigidFlat.respond
 
-    def spy(flat, *args, **kwargs):
-        response = respond(flat, *args, **kwargs)
-        exact_while_coupled.append(response.coupled and not flat.symmetric_tangent)
+    def spy(flat, displacement, flat_height, flat_slide, trial=FRICTIONLESS):
+        response = respond(flat, displacement, flat_height, flat_slide, trial)
+        exact_while_coupled.append(response.coupled and trial.tangent is Tangent.EXACT)
         return response
 
     monkeypatch.setattr(RigidFlat, "respond", spy)
@@ -212,7 +212,7 @@ def test_a_singular_exact_tangent_gives_way_to_the_symmetric_one_for_a_step(monk
 
     def spy(self, *args, **kwargs):
         if flipped:
-            symmetric_after.append(self.flat.symmetric_tangent)
+            symmetric_after.append(self.trial.tangent is Tangent.SYMMETRIC)
         return line_search(self, *args, **kwargs)
 
     monkeypatch.setattr(ReducedSystem, "height_slope", singular_once)

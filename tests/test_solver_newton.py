@@ -50,7 +50,7 @@ class ScriptedNewton(NewtonSolve):
                                  x1=SimpleNamespace(norm=lambda kind: increment))
         equilibrium = SimpleNamespace(
             system=system, options=SolverOptions(), spacing=1.0,
-            flat=SimpleNamespace(symmetric_tangent=True, count=np.count_nonzero),
+            flat=SimpleNamespace(count=np.count_nonzero),
             assemble_tangent=lambda contact: None)
         super().__init__(equilibrium, LoadStep(1.0, 0.0, Friction.PREDICTED, Control.HEIGHT),
                          Tolerances(tolerance, 1e-4), predictor=False)
@@ -63,8 +63,8 @@ class ScriptedNewton(NewtonSolve):
         contact = SimpleNamespace(node_active=np.ones(4, dtype=bool))
         return newton_module._Iterate(contact, residual, 0.0)
 
-    def _evaluate(self, predictor):
-        if self.active is None and self._done in self._law:
+    def _evaluate(self, trial):
+        if trial.active is None and self._done in self._law:
             return self._iterate(self._law[self._done])
         return self._scripted
 
