@@ -137,8 +137,8 @@ class ReducedSystem:
         """Reduced rows of the owned surface nodes and the reduced nodes of their 25 neighbours
         on the periodic surface grid (the columns of the contact tangent)."""
         flat, n = self.flat, self.flat.grid_size
-        node_reduced = flat.gather_nodes(self.reduction.reduced_node[flat.nodes])
-        neighbours = flat.neighbours_of(flat.owned_grid)  # -1: padding (ignored by PETSc)
+        node_reduced = flat.surface.gather_nodes(self.reduction.reduced_node[flat.nodes])
+        neighbours = flat.surface.neighbours_of(flat.owned_grid)  # -1: padding (ignored by PETSc)
         self._contact_rows = (3 * node_reduced[flat.owned_grid][:, None]
                               + np.arange(3)).astype(PETSc.IntType)
         self._contact_columns = np.where(neighbours >= 0, node_reduced[neighbours],

@@ -18,6 +18,8 @@ PHYSICS_MODULES = (
     "roughfriction.material", "roughfriction.case", "roughfriction.geometry.surface",
     "roughfriction.geometry.mesh", "roughfriction.geometry.adaptive",
     "roughfriction.solver.block", "roughfriction.solver.contact",
+    "roughfriction.solver.contact_faces", "roughfriction.solver.contact_quadrature",
+    "roughfriction.solver.contact_state", "roughfriction.solver.contact_measures",
     "roughfriction.solver.contact_law", "roughfriction.solver.equilibrium",
     "roughfriction.solver.newton", "roughfriction.solver.newton_options",
     "roughfriction.solver.reduced_assembly",

@@ -6,14 +6,10 @@ import pytest
 from mpi4py import MPI
 from roughfriction.case import SolverOptions
 from roughfriction.errors import InputError
-from roughfriction.solver.contact import (
-    NEIGHBOURS,
-    RigidFlat,
-    Tangent,
-    Trial,
-    face_quadrature,
-)
+from roughfriction.solver.contact import RigidFlat, Tangent, Trial
+from roughfriction.solver.contact_faces import face_quadrature
 from roughfriction.solver.contact_law import ContactLaw
+from roughfriction.solver.contact_quadrature import NEIGHBOURS
 
 TAU_C = 577e6  # [Pa]
 RAMP = 10e6  # [Pa]
@@ -63,7 +59,7 @@ def test_points_see_the_bilinear_surface_through_the_nodes():
     shape, _ = face_quadrature(3)
     face = 2 * N + 3  # face (2, 3): corners (2,3), (3,3), (2,0), (3,0) across the period
     corners = heights[[2, 3, 2, 3], [3, 3, 0, 0]]
-    np.testing.assert_allclose(flat.heights.reshape(N * N, 9)[face], shape @ corners)
+    np.testing.assert_allclose(flat.surface.heights.reshape(N * N, 9)[face], shape @ corners)
 
 
 def test_uniform_pressure_gives_consistent_nodal_forces_and_full_area():
@@ -345,7 +341,7 @@ def adaptive_flat(level=1, own=4, tangential=0.1 * PENALTY, peak=None):
     are 0..m-1. ``peak``: a finest grid node raised by that height [m] (else flat)."""
     from roughfriction.case import MeshOptions
     from roughfriction.geometry.adaptive import adaptive_layout
-    from roughfriction.solver.contact import surface_faces
+    from roughfriction.solver.contact_faces import surface_faces
 
     zone = np.zeros((own, own), bool)
     zone[1, 2] = True
@@ -366,12 +362,12 @@ def test_faces_of_varying_width_tile_the_surface_and_carry_a_uniform_pressure():
     n = flat.grid_size
     assert not faces.uniform and set(faces.width) == {1, 2, 4}
     total = (n * SPACING) ** 2
-    assert flat.face_area.sum() == pytest.approx(total, rel=1e-12)
-    assert flat.node_area.sum() == pytest.approx(total, rel=1e-12)
-    assert flat.integrate(np.ones(len(flat.point_area))) == pytest.approx(total, rel=1e-12)
+    assert flat.surface.face_area.sum() == pytest.approx(total, rel=1e-12)
+    assert flat.surface.node_area.sum() == pytest.approx(total, rel=1e-12)
+    assert flat.integrate(np.ones(len(flat.surface.point_area))) == pytest.approx(total, rel=1e-12)
     depth = 1e9 / PENALTY  # penetration of the flat [m]: p = 1 GPa everywhere
     response = flat.respond(np.zeros((len(flat.nodes), 3)), -depth, 0.0)
-    free = flat.node_free
+    free = flat.surface.node_free
     np.testing.assert_allclose(response.node_pressure[free], 1e9, rtol=1e-9)
     assert flat.normal_force(response) == pytest.approx(1e9 * total, rel=1e-9)
     assert response.node_force[:, 2].sum() == pytest.approx(1e9 * total, rel=1e-9)
@@ -390,7 +386,7 @@ def test_faces_of_varying_width_tile_the_surface_and_carry_a_uniform_pressure():
 
 def test_the_tangent_of_faces_of_varying_width_matches_central_differences():
     """A peak at a free node next to the refined cell, sliding: the nodal tangent on the
-    general coupling pattern (``RigidFlat.neighbours``) matches central differences of the
+    general coupling pattern (``SurfaceQuadrature.neighbours``) matches central differences of the
     nodal residual, hanging corners tied to their masters."""
     pressure = 1e9
     n = 8
@@ -408,7 +404,7 @@ def test_the_tangent_of_faces_of_varying_width_matches_central_differences():
     jacobian = central_differences(flat, u0, height, slide, 1e-5 * pressure / PENALTY)
     tangent = np.zeros_like(jacobian)
     for a in flat.owned_grid:
-        for slot, b in enumerate(flat.neighbours_of(a)):
+        for slot, b in enumerate(flat.surface.neighbours_of(a)):
             if b >= 0:
                 tangent[a, :, row_of[b], :] += response.node_stiffness[a, slot]
     assert np.abs(jacobian).max() > 0.1 * PENALTY * SPACING**2
@@ -420,7 +416,7 @@ def test_the_tangent_of_faces_of_varying_width_matches_central_differences():
 def tangent_entries_of(flat, response, owned):
     """The tangent blocks [N/m] of the ``owned`` nodes keyed by (node a, neighbour b)."""
     nodes, blocks = response.node_blocks
-    neighbours = flat.neighbours_of(nodes)
+    neighbours = flat.surface.neighbours_of(nodes)
     return {(a, b): blocks[row, slot] for row, a in enumerate(nodes) if a in owned
             for slot, b in enumerate(neighbours[row]) if b >= 0 and blocks[row, slot].any()}
 
@@ -434,7 +430,7 @@ def test_ranks_evaluating_their_own_faces_reproduce_the_single_rank_contact(unif
     update (each rank evaluating fewer faces than the surface has)."""
     from roughfriction.case import MeshOptions
     from roughfriction.geometry.adaptive import adaptive_layout
-    from roughfriction.solver.contact import surface_faces
+    from roughfriction.solver.contact_faces import surface_faces
 
     comm = MPI.COMM_WORLD
     if uniform:
@@ -461,7 +457,7 @@ def test_ranks_evaluating_their_own_faces_reproduce_the_single_rank_contact(unif
 
     whole, part = flat(MPI.COMM_SELF, np.ones(len(grid), bool)), flat(comm, mine)
     owned = set(part.owned_grid)
-    assert len(part.face_ids) < part.num_faces or comm.size == 1
+    assert len(part.surface.face_ids) < part.surface.num_faces or comm.size == 1
     height = np.quantile(heights, 0.7)
     for predictor in (True, False):
         arguments = (height, 2 * TAU_C / (1e-3 * PENALTY), Trial(True, predictor))

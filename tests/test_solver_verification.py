@@ -110,7 +110,7 @@ def fem_complete_contact_pressure(fem_run, amplitude) -> float:
     mode = sinusoid(n, 1.0)
     assert np.all(fem_run.maps["contact_normal"])
     flat = fem_run.equilibrium.flat
-    settlement = flat.gather_nodes(top_settlement(fem_run)).reshape(n, n)
+    settlement = flat.surface.gather_nodes(top_settlement(fem_run)).reshape(n, n)
     pressure = fem_run.maps["pressure_normal"]
     pressure_amplitude = np.sum(pressure * mode) / np.sum(mode**2)
     deflection_amplitude = np.sum(settlement * mode) / np.sum(mode**2)
