@@ -54,8 +54,9 @@ class ContactResponse:
     """Contact state at the nodes and integration points a rank evaluates, and its nodal forces
     and tangent.
 
-    Point arrays hold the points of the rank's faces (P, face-major: ``SurfaceQuadrature.face_ids``);
-    node arrays are indexed by the surface grid node i N + j, exact for the nodes it owns.
+    Point arrays hold the points of the rank's faces (P, face-major:
+    ``SurfaceQuadrature.face_ids``); node arrays are indexed by the surface grid node i N + j,
+    exact for the nodes it owns.
 
     Attributes
     ----------
