@@ -201,13 +201,14 @@ class SolverOptions:
         (nu -> 0.5) needs "direct": GAMG-preconditioned CG then stalls.
     residual_tolerance : float
         Newton: ||R|| and |sum p a - F_n| below this times F_n [-] (a Newton solve that
-        stagnates within ``solver.newton.RESIDUAL_FLOOR`` times it is accepted).
+        stagnates within ``solver.newton_options.NewtonOptions.residual_floor`` times it is
+        accepted).
     increment_tolerance : float
         Newton: max |du| below this times the grid spacing [-] (the penetration tolerance:
         the displacement is not known better than that).
     max_iterations : int
         Newton iterations per active-set round before a step is cut [-] (up to
-        ``solver.newton.MAX_ROUNDS`` rounds while the contact set settles).
+        ``NewtonOptions.max_rounds`` rounds while the contact set settles).
     normal_increments : int
         Initial number of preload increments [-] (adapted).
     max_preload_increment : float

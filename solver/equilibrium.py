@@ -13,7 +13,13 @@ from dataclasses import dataclass
 
 from petsc4py import PETSc
 from roughfriction.case import SolverOptions
-from roughfriction.solver.contact import ContactHistory, ContactResponse, RigidFlat
+from roughfriction.solver.contact import (
+    FRICTIONLESS,
+    ContactHistory,
+    ContactResponse,
+    RigidFlat,
+    Trial,
+)
 from roughfriction.solver.newton import LoadStep, NewtonReport, solve_load_step
 from roughfriction.solver.periodic import PeriodicReduction
 from roughfriction.solver.reduced_system import ReducedSystem
@@ -93,11 +99,10 @@ class Equilibrium:
 
     # --- the iterate --------------------------------------------------------------------------
 
-    def assemble(self, flat_slide: float, friction: bool, predictor: bool = False,
-                 active=None) -> ContactResponse:
-        """R, b and c at the current iterate (:meth:`ReducedSystem.assemble`)."""
-        return self.system.assemble(self.displacement, self.flat_height, flat_slide, friction,
-                                    predictor, active)
+    def assemble(self, flat_slide: float, trial: Trial = FRICTIONLESS) -> ContactResponse:
+        """R, b and c at the current iterate with the contact evaluated as ``trial`` says
+        (:meth:`ReducedSystem.assemble`)."""
+        return self.system.assemble(self.displacement, self.flat_height, flat_slide, trial)
 
     def assemble_tangent(self, contact: ContactResponse) -> None:
         """K at the iterate of the last :meth:`assemble`, whose ``contact`` state is passed
@@ -121,7 +126,7 @@ class Equilibrium:
         [N/m] (< 0: lowering the flat loads it): residual, b, c and tangent assembled there,
         one linear solve K du/dh = -b, c.du/dh + d. du/dh is kept for :meth:`follow_path`."""
         system = self.system
-        self.assemble_tangent(self.assemble(0.0, friction=False))
+        self.assemble_tangent(self.assemble(0.0))
         system.set_operator()
         system.solve_height_column(PATH_SLOPE_TOLERANCE)
         if self._path_tangent is None:

@@ -8,73 +8,64 @@ s = du.R - dh r of the step's energy, which damps contact and yield overshoot; a
 residual stops halving is abandoned (the step is then cut). A load step is converged
 when, after Uzawa updates of the contact multipliers (Newton stops at looser tolerances between
 updates), no contact point penetrates deeper than tol_g h. A step that only marks the path takes
-one update at its end instead, which the next step's solve absorbs (``CARRIED_PENETRATION``).
+one update at its end instead, which the next step's solve absorbs
+(``NewtonOptions.carried_penetration``). The settings are a :class:`NewtonOptions`.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 from collections.abc import Callable
 from dataclasses import dataclass
+from enum import Enum
 
 import numpy as np
 from petsc4py import PETSc
-from roughfriction.solver.contact import ContactResponse
+from roughfriction.solver.contact import ContactResponse, Tangent, Trial
 from roughfriction.solver.linear import LinearSolveError
-from roughfriction.solver.reduced_system import SMALLEST_TOLERANCE
+from roughfriction.solver.newton_options import NewtonOptions
 
-#: Trial steps of a line search after the full Newton step, before the last is taken anyway [-].
-LINE_SEARCH_TRIALS = 5
-#: A line search accepts a step length a where the slope of the energy along the Newton step,
-#: s(a) = du.R(a) - dh r(a), has |s(a)| <= this times |s(0)| (s(1) <= it for the full step) [-].
-LINE_SEARCH_SLACK = 0.25
-#: Give a step up when ||R|| + |r| has not halved over this many iterations (stick/slip or
-#: open/closed cycling; the step is then cut) [-].
-STAGNATION_WINDOW = 4
-#: A Newton solve that stagnates with ||R||, |r| and max |du| within this factor of their
-#: tolerances, under the contact law itself, has reached the floor set by the inexact Krylov
-#: solves and the kinks of the contact law: it is accepted, not cut (Newton tolerances 1e-4
-#: and 1e-8 F_n give the same mu_s to 0.06 %). A solve to tolerances tighter than the path's
-#: (``UZAWA_RESIDUAL_TOLERANCE``) is accepted there as soon as its line search has cut a step:
-#: a kink lies between the iterate and the solution (a node at the edge of contact, whose shear
-#: cap follows its pressure; points at the yield surface), and Newton only halves the residual
-#: per iteration from there; and as soon as its residuals meet their tolerance: the forces are
-#: converged, and an increment still above its own lies along a direction they hardly
-#: constrain (slipping points on the cap's ramp make the exact tangent nearly singular) [-].
-RESIDUAL_FLOOR = 10.0
-#: Newton iterations with the contact law free; then the contact set is frozen until the
-#: iterate converges: its nodes stay in contact, and nodes that penetrate join it (the set
-#: only grows: no open/closed cycling, and a flat carried by a few yielding peaks cannot sink
-#: through open nodes it does not see); the iterate is accepted if it also meets the
-#: tolerances under the law itself, else the set is re-frozen at the law's set there (a primal
-#: active-set strategy). The slip set is not frozen: a frozen slipping point below the cap has
-#: a traction direction that jumps with a tiny trial vector [-].
-FREEZE_AFTER = 3
-#: Active-set rounds (freezes) per Newton solve [-]. Each round has its own budget of
-#: ``max_iterations``, and a new round is started only while fewer nodes change their contact
-#: state than at the last one (no cycling).
-MAX_ROUNDS = 5
-#: Newton solves between Uzawa updates stop at ||R||, |r| <= this times F_n and max |du| <=
-#: UZAWA_INCREMENT_TOLERANCE h (or the solver's tolerances if looser); once the penetration is
-#: within its tolerance, one more solve with the same multipliers meets the solver's
-#: tolerances (multipliers need an equilibrium only as good as their own error) [-].
-UZAWA_RESIDUAL_TOLERANCE = 1e-4
-UZAWA_INCREMENT_TOLERANCE = 1e-2
-#: A step that marks the path leaves its multiplier update to the next step while its deepest
-#: penetration is within this times the penetration tolerance; deeper (a penalty soft against
-#: the solid, e.g. a locking mesh), the update would shift the load the flat carries, and the
-#: step is re-solved [-].
-CARRIED_PENETRATION = 10.0
-#: Krylov tolerance = FORCING_FACTOR x (||R|| + |r|) / F_n, clipped to [FORCING_MIN, FORCING_MAX].
-FORCING_FACTOR = 0.1
-FORCING_MIN = SMALLEST_TOLERANCE
-FORCING_MAX = 1e-3
-#: ... but never tighter than FORCING_SAFEGUARD x the Newton tolerance / (||R|| + |r|) / F_n
-#: (at most FORCING_SAFEGUARD_MAX): a linear residual below the Newton tolerance is not needed
-#: to meet it (Eisenstat-Walker's safeguard; Kelley, Iterative Methods for Linear and Nonlinear
-#: Equations, 1995, Sec. 6.3) [-].
-FORCING_SAFEGUARD = 0.5
-FORCING_SAFEGUARD_MAX = 0.1
+#: The options of every solve that is not given its own.
+DEFAULT_OPTIONS = NewtonOptions()
+
+
+class Friction(Enum):
+    """The contact law of a load step and how its Newton solve starts.
+
+    ``NONE``: frictionless (the preload; t = 0). The frictional ones differ in their start:
+    ``PREDICTED``: the first solve starts with the tangential predictor of
+    :meth:`RigidFlat.respond` (the first sliding step); ``PLACED``: from the first iterate the
+    caller has placed; ``EXACT``: from there, with the exact tangent instead of the symmetric
+    one (:class:`NewtonSolve`; a step solved on where every node slips).
+    """
+
+    NONE = "none"
+    PREDICTED = "predicted"
+    PLACED = "placed"
+    EXACT = "exact"
+
+
+class Control(Enum):
+    """What holds the flat in a load step: ``FORCE`` solves for the height h that carries
+    F_n; ``HEIGHT`` keeps the current h (displacement control: one linear solve per Newton
+    iteration, and no limit point while a few yielding peaks carry the flat)."""
+
+    FORCE = "force"
+    HEIGHT = "height"
+
+
+class Finish(Enum):
+    """Where a load step ends: ``TOLERANCES``, at the solver's tolerances; ``PATH``, a step
+    that only marks the loading path to the state that is reported (a preload step that
+    sliding follows, a sliding step before inception): at the looser Newton tolerances of the
+    solves between Uzawa updates, after one solve: if a node penetrates deeper than the
+    tolerance (but within ``NewtonOptions.carried_penetration`` times it), the multipliers are
+    updated and the update is carried into the next step, whose first solve absorbs it,
+    instead of a re-solve here."""
+
+    TOLERANCES = "tolerances"
+    PATH = "path"
 
 
 @dataclass(frozen=True)
@@ -84,37 +75,55 @@ class LoadStep:
     Attributes
     ----------
     normal_force : float
-        F_n to hold [N]; with ``hold_height``, only the force scale of the tolerances.
+        F_n to hold [N]; under ``Control.HEIGHT``, only the force scale of the tolerances.
     flat_slide : float
-        The flat's x displacement U [m].
-    friction : bool
-        Frictional contact (tangential phase) or frictionless (preload).
-    hold_height : bool
-        Keep the flat at its current height h (displacement control: one linear solve per
-        Newton iteration, and no limit point while a few yielding peaks carry the flat)
-        instead of solving for the h that carries ``normal_force``.
-    predictor : bool
-        A tangential step's first solve starts with the tangential predictor of
-        :meth:`RigidFlat.respond` (False: the caller has placed a first iterate).
-    marks_path : bool
-        The step only marks the loading path to the state that is reported (a preload step
-        that sliding follows, a sliding step before inception): it ends at the looser Newton
-        tolerances of the solves between Uzawa updates, after one solve: if a node penetrates
-        deeper than the tolerance (but within ``CARRIED_PENETRATION`` times it), the
-        multipliers are updated and the update is carried into the next step, whose first
-        solve absorbs it, instead of a re-solve here.
-    exact_tangent : bool
-        Newton starts with the exact tangent instead of the symmetric one
-        (:class:`NewtonSolve`).
+        The flat's x displacement U [m] (0 without friction: it would act on nothing).
+    friction : Friction
+        Frictionless, or frictional and how Newton starts.
+    control : Control
+        Force or height control of the flat.
+    finish : Finish
+        Solved to the tolerances, or only marking the path.
     """
 
     normal_force: float
     flat_slide: float = 0.0
-    friction: bool = False
-    hold_height: bool = False
-    predictor: bool = True
-    marks_path: bool = False
-    exact_tangent: bool = False
+    friction: Friction = Friction.NONE
+    control: Control = Control.FORCE
+    finish: Finish = Finish.TOLERANCES
+
+    def __post_init__(self):
+        for name, kind in (("friction", Friction), ("control", Control), ("finish", Finish)):
+            if not isinstance(getattr(self, name), kind):
+                raise TypeError(f"LoadStep.{name} must be a {kind.__name__}, "
+                                f"not {getattr(self, name)!r}")
+        if self.friction is Friction.NONE and self.flat_slide != 0.0:
+            raise ValueError("a frictionless load step has no flat slide")
+
+    @property
+    def frictional(self) -> bool:
+        """Frictional contact (the tangential phase)."""
+        return self.friction is not Friction.NONE
+
+    @property
+    def predictor(self) -> bool:
+        """The first solve starts with the tangential predictor."""
+        return self.friction is Friction.PREDICTED
+
+    @property
+    def exact_tangent(self) -> bool:
+        """Newton starts with the exact tangent."""
+        return self.friction is Friction.EXACT
+
+    @property
+    def hold_height(self) -> bool:
+        """The flat is held at its height."""
+        return self.control is Control.HEIGHT
+
+    @property
+    def marks_path(self) -> bool:
+        """The step only marks the path."""
+        return self.finish is Finish.PATH
 
 
 @dataclass(frozen=True)
@@ -168,23 +177,24 @@ class _Iterate:
         return self.residual**2 + self.force_error**2
 
 
-def line_search_step(slope: Callable[[float], float], initial_slope: float) -> float:
+def line_search_step(slope: Callable[[float], float], initial_slope: float,
+                     options: NewtonOptions = DEFAULT_OPTIONS) -> float:
     """Step length a in (0, 1] along a Newton step: the full step if the energy's slope there,
-    s(1), is <= ``LINE_SEARCH_SLACK`` |s(0)|, else a root of s bracketed in [0, 1], by the
+    s(1), is <= ``options.line_search_slack`` |s(0)|, else a root of s bracketed in [0, 1], by the
     secant through the last two trials (exact once both lie past a kink of s, e.g. a node that
     touches the flat) or bisection where that leaves the inner 80 % of the bracket, until
-    |s(a)| <= ``LINE_SEARCH_SLACK`` |s(0)| or ``LINE_SEARCH_TRIALS`` trials (the last is taken).
+    |s(a)| <= ``line_search_slack`` |s(0)| or ``line_search_trials`` trials (the last is taken).
 
     ``slope(a)`` moves the iterate to a and returns s(a) [J] (inf if the residual there is not
     finite); ``initial_slope`` is s(0) < 0 [J]. Returns the a of the last call of ``slope``.
     """
-    threshold = LINE_SEARCH_SLACK * abs(initial_slope)
+    threshold = options.line_search_slack * abs(initial_slope)
     low, high = 0.0, 1.0
     older, older_slope = 0.0, initial_slope
     last, last_slope = 1.0, slope(1.0)
     if last_slope <= threshold:
         return 1.0
-    for _ in range(LINE_SEARCH_TRIALS):
+    for _ in range(options.line_search_trials):
         step = np.nan
         if np.isfinite(older_slope) and np.isfinite(last_slope) and last_slope != older_slope:
             step = last - last_slope * (last - older) / (last_slope - older_slope)
@@ -202,37 +212,41 @@ def line_search_step(slope: Callable[[float], float], initial_slope: float) -> f
     return last
 
 
-def forcing_term(state: _Iterate, normal_force: float, residual_tolerance: float) -> float:
+def forcing_term(state: _Iterate, normal_force: float, residual_tolerance: float,
+                 options: NewtonOptions = DEFAULT_OPTIONS) -> float:
     """Relative Krylov tolerance of a Newton solve to ``residual_tolerance`` F_n, proportional
     to the relative nonlinear residual (inexact Newton, Eisenstat-Walker choice 2 with exponent
     1): loose far from the solution, tight near it, so convergence stays quadratic without
     over-solving early iterations, and never tighter than the Newton tolerance
     ``residual_tolerance`` needs (0: no such bound) [-]."""
     relative_residual = (state.residual + abs(state.force_error)) / normal_force
-    forcing = min(FORCING_MAX, max(FORCING_MIN, FORCING_FACTOR * relative_residual))
+    forcing = min(options.forcing_max,
+                  max(options.forcing_min, options.forcing_factor * relative_residual))
     if relative_residual == 0.0:
         return forcing
-    return max(forcing, min(FORCING_SAFEGUARD_MAX,
-                            FORCING_SAFEGUARD * residual_tolerance / relative_residual))
+    return max(forcing, min(options.forcing_safeguard_max,
+                            options.forcing_safeguard * residual_tolerance / relative_residual))
 
 
-def solve_load_step(equilibrium, step: LoadStep) -> NewtonReport:
+def solve_load_step(equilibrium, step: LoadStep, newton: NewtonOptions = DEFAULT_OPTIONS
+                    ) -> NewtonReport:
     """One load step on ``equilibrium`` (:class:`solver.equilibrium.Equilibrium`, from its
     current iterate): Newton solves (:class:`NewtonSolve`) with Uzawa updates of the contact
-    multipliers until no contact node penetrates deeper than the tolerance."""
+    multipliers until no contact node penetrates deeper than the tolerance (``newton``: the
+    driver's settings)."""
     options, flat = equilibrium.options, equilibrium.flat
     tolerance = options.penetration_tolerance * equilibrium.spacing
     tight = Tolerances(options.residual_tolerance, options.increment_tolerance)
-    tolerances = Tolerances(max(tight.residual, UZAWA_RESIDUAL_TOLERANCE),
-                            max(tight.increment, UZAWA_INCREMENT_TOLERANCE))
+    tolerances = Tolerances(max(tight.residual, newton.uzawa_residual_tolerance),
+                            max(tight.increment, newton.uzawa_increment_tolerance))
     if step.marks_path:
         tight = tolerances
     iterations = krylov = updates = solves = 0
     carried = False  # the last update is left to the next step
     while True:
         # the tangential predictor belongs to the first solve of a step only
-        predictor = step.predictor and step.friction and solves == 0
-        report = NewtonSolve(equilibrium, step, tolerances, predictor).run()
+        predictor = step.predictor and solves == 0
+        report = NewtonSolve(equilibrium, step, tolerances, predictor, newton).run()
         solves += 1
         iterations += report.iterations
         krylov += report.krylov_iterations
@@ -248,7 +262,7 @@ def solve_load_step(equilibrium, step: LoadStep) -> NewtonReport:
             break
         flat.augment(report.contact)
         updates += 1
-        carried = step.marks_path and penetration <= CARRIED_PENETRATION * tolerance
+        carried = step.marks_path and penetration <= newton.carried_penetration * tolerance
         if carried:
             break  # the next step's solve absorbs the update (commit keeps it)
     reason = report.reason
@@ -259,22 +273,50 @@ def solve_load_step(equilibrium, step: LoadStep) -> NewtonReport:
     return NewtonReport(not reason, iterations, krylov, report.residual, report.contact, reason)
 
 
+@dataclass(frozen=True)
+class _Floor:
+    """The floor judged under the contact law (:meth:`NewtonSolve._at_floor`): whether the
+    solve stops there, and the trial and iterate it stops or goes on with."""
+
+    reached: bool
+    trial: Trial
+    state: _Iterate
+
+
+@dataclass(frozen=True)
+class _Settled:
+    """A frozen set's converged iterate judged under the contact law
+    (:meth:`NewtonSolve._settle_frozen_set`): the trial and iterate to go on with, the nodes
+    that changed their contact state, whether a new frozen round starts, and why the solve
+    fails if the set cycles ("" else)."""
+
+    trial: Trial
+    state: _Iterate
+    changes: float
+    new_round: bool
+    reason: str
+
+
 class NewtonSolve:
     """Newton iterations from the current iterate of ``equilibrium`` with fixed multipliers
     until ||R||, |r| <= ``tolerances.residual`` F_n and max |du| <= ``tolerances.increment`` h
-    (``predictor``: start with the tangential predictor of :meth:`RigidFlat.respond`).
+    (``predictor``: start with the tangential predictor of :meth:`RigidFlat.respond`;
+    ``newton``: the driver's settings).
 
-    The iterations start with the symmetric tangent (:attr:`RigidFlat.symmetric_tangent`:
-    CG, and no stick/slip cycling driven by the cap's ramp) and go on with the exact one if
-    they stagnate or reach the iteration limit while slipping points sit on the ramp (the
-    symmetric tangent then converges only linearly); with ``step.exact_tangent`` they start
-    with the exact one. Where the exact tangent says that lowering the flat would unload it
-    (dr/dh >= 0: singular, through the ramp's coupling, whose friction coefficient
-    tau_c / p_r is far above 1), that Newton step is taken with the symmetric one.
+    The iterations start with the symmetric tangent (``Tangent.SYMMETRIC`` in the
+    :class:`Trial` of the contact: CG, and no stick/slip cycling driven by the cap's ramp) and
+    go on with the exact one if they stagnate or reach the iteration limit while slipping
+    points sit on the ramp (the symmetric tangent then converges only linearly); with
+    ``Friction.EXACT`` they start with the exact one. Where the exact tangent says that
+    lowering the flat would unload it (dr/dh >= 0: singular, through the ramp's coupling, whose
+    friction coefficient tau_c / p_r is far above 1), that Newton step is taken with the
+    symmetric one.
     """
 
-    def __init__(self, equilibrium, step: LoadStep, tolerances: Tolerances, predictor: bool):
+    def __init__(self, equilibrium, step: LoadStep, tolerances: Tolerances, predictor: bool,
+                 newton: NewtonOptions = DEFAULT_OPTIONS):
         self.equilibrium, self.step, self.predictor = equilibrium, step, predictor
+        self.newton = newton
         self.system, self.flat = equilibrium.system, equilibrium.flat
         self.max_iterations = equilibrium.options.max_iterations
         self.tolerance_force = tolerances.residual * step.normal_force
@@ -284,8 +326,10 @@ class NewtonSolve:
         # of ranks to round-off (GAMG's aggregates depend on the partition anyway)
         iterative = self.system.linear_solver.method == "iterative"
         self.safeguarded = tolerances.residual if iterative else 0.0
-        self.settles_on_kink = tolerances.residual < UZAWA_RESIDUAL_TOLERANCE  # RESIDUAL_FLOOR
-        self.active = None  # the frozen contact set of the nodes, or None
+        self.settles_on_kink = tolerances.residual < newton.uzawa_residual_tolerance  # the floor
+        # how the contact is evaluated: friction, the frozen set (None: the law's) and tangent
+        self.trial = Trial(step.frictional, tangent=(Tangent.EXACT if step.exact_tangent
+                                                     else Tangent.SYMMETRIC))
         self.increment, self.krylov = 0.0, 0
         self.cut = False  # the last line search cut the Newton step
         self.singular = False  # the exact tangent was singular at this iterate
@@ -295,16 +339,33 @@ class NewtonSolve:
         self.state = None
 
     def run(self) -> NewtonReport:
-        """Iterate to convergence or failure."""
-        self.flat.symmetric_tangent = not self.step.exact_tangent
-        self.state = self._evaluate(self.predictor)
+        """Iterate to convergence or failure: at each iterate, settle a converged frozen set,
+        stop if converged, failed or at the floor, else advance."""
+        self.state = self._evaluate(self._first_trial())
         for self.iteration in itertools.count():
-            report = self._judge()
-            if report is not None:
-                return report
+            if self._converged(self.state) and self.trial.active is not None:
+                settled = self._settle_frozen_set()
+                self._apply(settled)
+                if settled.reason:
+                    return self._report(settled.reason)
+            if self._converged(self.state) and self.trial.active is None:
+                return self._report()
+            self._record(self.state)
+            if not np.isfinite(self.state.merit):
+                return self._report("residual not finite")
+            if self._near_floor(self.state):
+                floor = self._at_floor()
+                self.trial, self.state = floor.trial, floor.state
+                if floor.reached:
+                    return self._report()
             reason = self._advance()
             if reason:
                 return self._report(reason)
+
+    def _first_trial(self) -> Trial:
+        """The trial of a first iterate: with the tangential predictor while the solve has
+        taken no Newton step from it."""
+        return dataclasses.replace(self.trial, predictor=self.predictor)
 
     # --- judging an iterate -------------------------------------------------------------------
 
@@ -316,59 +377,60 @@ class NewtonSolve:
         return (not self.predictor and self._forces_met(state, factor)
                 and self.increment <= factor * self.tolerance_increment)
 
-    def _judge(self) -> NewtonReport | None:
-        """The report to stop with at the current iterate (converged, at the floor, or failed),
-        else None."""
-        if self._converged(self.state) and self.active is not None:
-            reason = self._settle_frozen_set()
-            if reason:
-                return self._report(reason)
-        if self._converged(self.state) and self.active is None:
-            return self._report()
-        state = self.state
+    def _record(self, state: _Iterate) -> None:
+        """Add ||R|| + |r| of ``state`` to the history and note whether the solve stagnates
+        (not halved over ``stagnation_window`` iterations)."""
         self.history.append(state.residual + abs(state.force_error))
-        self.stagnating = (len(self.history) > STAGNATION_WINDOW + 2
-                           and self.history[-1] > 0.5 * self.history[-1 - STAGNATION_WINDOW])
-        if not np.isfinite(state.merit):
-            return self._report("residual not finite")
-        if (self.stagnating or ((self.cut or self._forces_met(state)) and self.settles_on_kink
-                                and self._converged(state, RESIDUAL_FLOOR))):
-            if self._at_floor():
-                return self._report()
-        return None
+        window = self.newton.stagnation_window
+        self.stagnating = (len(self.history) > window + 2
+                           and self.history[-1] > 0.5 * self.history[-1 - window])
 
-    def _settle_frozen_set(self) -> str:
+    def _near_floor(self, state: _Iterate) -> bool:
+        """The iterate is worth judging at the floor: the solve stagnates, or, to tolerances
+        tighter than the path's, it is within ``residual_floor`` of them after a cut step or
+        with its forces met."""
+        return (self.stagnating or ((self.cut or self._forces_met(state)) and self.settles_on_kink
+                                    and self._converged(state, self.newton.residual_floor)))
+
+    def _settle_frozen_set(self) -> _Settled:
         """Converged with a frozen set: judge the iterate by the contact law itself (nodes that
         flip at a negligible force no longer cycle), else re-freeze at the law's set there for
-        a new round while the set settles. Returns why not, if the set cycles ("" else)."""
-        frozen, self.active = self.active, None
-        self.state = self._evaluate(False)
-        if self._converged(self.state):
-            return ""
-        previous, self.changes = self.changes, self.flat.count(
-            self.state.contact.node_active != frozen)
-        if self.changes >= previous or self.rounds == MAX_ROUNDS:
-            return (f"contact set cycling ({self.changes} nodes change state after "
-                    f"{self.rounds} frozen round(s))")
-        self.active = self.state.contact.node_active
-        self.rounds += 1
-        self.limit = self.iteration + self.max_iterations
-        self.history.clear()
-        return ""
+        a new round while the set settles; fails if the set cycles."""
+        frozen, free = self.trial.active, dataclasses.replace(self.trial, active=None)
+        state = self._evaluate(free)
+        if self._converged(state):
+            return _Settled(free, state, self.changes, False, "")
+        changes = self.flat.count(state.contact.node_active != frozen)
+        if changes >= self.changes or self.rounds == self.newton.max_rounds:
+            return _Settled(free, state, changes, False,
+                            f"contact set cycling ({changes} nodes change state after "
+                            f"{self.rounds} frozen round(s))")
+        refrozen = dataclasses.replace(self.trial, active=state.contact.node_active)
+        return _Settled(refrozen, state, changes, True, "")
 
-    def _at_floor(self) -> bool:
-        """The iterate is within ``RESIDUAL_FLOOR`` of the tolerances under the contact law
-        itself (a frozen round goes on if not, unless it stagnates)."""
-        frozen = self.active
+    def _apply(self, settled: _Settled) -> None:
+        """Go on from a :meth:`_settle_frozen_set`: its trial and iterate, and for a new round
+        its own iteration budget and residual record."""
+        self.trial, self.state, self.changes = settled.trial, settled.state, settled.changes
+        if settled.new_round:
+            self.rounds += 1
+            self.limit = self.iteration + self.max_iterations
+            self.history.clear()
+
+    def _at_floor(self) -> _Floor:
+        """Whether the iterate is within ``residual_floor`` of the tolerances under the contact
+        law itself, with the trial and iterate to go on with: under the law if it is, or if the
+        solve stagnates; else (a frozen round goes on) under the frozen set again."""
+        frozen, trial, state = self.trial.active, self.trial, self.state
         if frozen is not None:  # judge the floor under the contact law itself
-            self.active = None
-            self.state = self._evaluate(False)
-        if self._converged(self.state, RESIDUAL_FLOOR):
-            return True
+            trial = dataclasses.replace(trial, active=None)
+            state = self._evaluate(trial)
+        if self._converged(state, self.newton.residual_floor):
+            return _Floor(True, trial, state)
         if not self.stagnating:  # above the floor under the law: the frozen round goes on
-            self.active = frozen
-            self.state = self._evaluate(False)
-        return False
+            trial = dataclasses.replace(trial, active=frozen)
+            state = self._evaluate(trial)
+        return _Floor(False, trial, state)
 
     def _where(self) -> str:
         state, normal_force = self.state, self.step.normal_force
@@ -386,26 +448,27 @@ class NewtonSolve:
     def _advance(self) -> str:
         """One Newton iteration, or a change of tangent or of the flat's height; returns why
         the solve fails ("" if it goes on)."""
-        if ((self.stagnating or self.iteration == self.limit) and self.flat.symmetric_tangent
-                and self.system.coupled and not self.singular):
+        if ((self.stagnating or self.iteration == self.limit)
+                and self.trial.tangent is Tangent.SYMMETRIC and self.system.coupled
+                and not self.singular):
             # slipping points on the cap's ramp: go on with the exact tangent
-            self.flat.symmetric_tangent = False
-            self.state = self._evaluate(False)
+            self.trial = dataclasses.replace(self.trial, tangent=Tangent.EXACT)
+            self.state = self._evaluate(self.trial)
             self.history.clear()
             self.limit = self.iteration + self.max_iterations
             return ""
         if self.stagnating:
-            return (f"residual not halved in {STAGNATION_WINDOW} iterations (stick/slip "
-                    f"or open/closed cycling; {self._where()})")
+            return (f"residual not halved in {self.newton.stagnation_window} iterations "
+                    f"(stick/slip or open/closed cycling; {self._where()})")
         if self.iteration == self.limit:
             return f"iteration limit {self.max_iterations} ({self._where()})"
         if self.flat.count(self.state.contact.node_active) == 0 and not self.step.hold_height:
             self.equilibrium.place_flat(self.step.normal_force)
-            self.state = self._evaluate(self.predictor)
+            self.state = self._evaluate(self._first_trial())
             self.increment = np.inf
             return ""
-        if self.iteration == FREEZE_AFTER and self.active is None:
-            self.active = self.state.contact.node_active
+        if self.iteration == self.newton.freeze_after and self.trial.active is None:
+            self.trial = dataclasses.replace(self.trial, active=self.state.contact.node_active)
             self.rounds = 1
             self.history.clear()  # the frozen problem's residuals start their own record
         return self._newton_step()
@@ -418,32 +481,35 @@ class NewtonSolve:
         try:
             height_increment, its = system.bordered_solve(
                 self.state.force_error,
-                forcing_term(self.state, step.normal_force, self.safeguarded), step.hold_height)
+                forcing_term(self.state, step.normal_force, self.safeguarded, self.newton),
+                step.hold_height)
         except LinearSolveError as error:
             return str(error)
         self.krylov += its
         if not (step.hold_height or system.symmetric) and system.height_slope() >= 0.0:
             # lowering the flat would unload it: the exact tangent is singular here (the
             # ramp's coupling); this Newton step is taken with the symmetric one instead
-            self.flat.symmetric_tangent, self.singular = True, True
-            self.state = self._evaluate(False)
+            self.trial = dataclasses.replace(self.trial, tangent=Tangent.SYMMETRIC)
+            self.singular = True
+            self.state = self._evaluate(self.trial)
             return ""
         length = self._line_search(height_increment)
         self.increment = length * system.x1.norm(PETSc.NormType.NORM_INFINITY)
         self.cut = length < 1.0
         self.predictor = False
         if self.singular:  # back to the exact tangent
-            self.flat.symmetric_tangent, self.singular = False, False
-            self.state = self._evaluate(False)
-        if self.active is not None:  # nodes that entered contact stay in this round
-            self.active = self.state.contact.node_active
+            self.trial = dataclasses.replace(self.trial, tangent=Tangent.EXACT)
+            self.singular = False
+            self.state = self._evaluate(self.trial)
+        if self.trial.active is not None:  # nodes that entered contact stay in this round
+            self.trial = dataclasses.replace(self.trial, active=self.state.contact.node_active)
         return ""
 
-    def _evaluate(self, predictor: bool) -> _Iterate:
-        """Assemble at the current iterate and measure its residuals."""
+    def _evaluate(self, trial: Trial) -> _Iterate:
+        """Assemble at the current iterate, the contact evaluated as ``trial`` says, and
+        measure its residuals."""
         step = self.step
-        contact = self.equilibrium.assemble(step.flat_slide, step.friction, predictor,
-                                            self.active)
+        contact = self.equilibrium.assemble(step.flat_slide, trial)
         force_error = (0.0 if step.hold_height
                        else self.flat.normal_force(contact) - step.normal_force)
         return _Iterate(contact, self.system.residual.norm(), force_error)
@@ -470,7 +536,7 @@ class NewtonSolve:
             nonlocal position
             self.equilibrium.advance(length - position, height_increment)
             position = length
-            self.state = self._evaluate(False)
+            self.state = self._evaluate(self.trial)
             if not np.isfinite(self.state.merit):
                 return np.inf
             return system.x1.dot(system.residual) - height_increment * self.state.force_error
@@ -479,11 +545,12 @@ class NewtonSolve:
             slope(1.0)
             return 1.0
         initial_slope = system.x1.dot(system.residual) - height_increment * current.force_error
-        if initial_slope < 0.0 and (not self.step.friction or self.flat.symmetric_tangent):
-            return line_search_step(slope, initial_slope)
+        symmetric = self.trial.tangent is Tangent.SYMMETRIC
+        if initial_slope < 0.0 and (not self.step.frictional or symmetric):
+            return line_search_step(slope, initial_slope, self.newton)
         length = 1.0
         slope(length)
-        for _ in range(LINE_SEARCH_TRIALS):
+        for _ in range(self.newton.line_search_trials):
             if self.state.merit < current.merit:
                 break
             length *= 0.5

@@ -5,11 +5,16 @@ J2 does not depend on it, so the solid's volumetric and deviatoric parts can be 
 different quadrature rules without changing the constitutive law.
 
 All arrays are stacks over quadrature points: strains and stresses have shape (m, 3, 3).
+
+The solid sees a law through :class:`MaterialLaw` (the return map of a strain deviator from a
+committed history, with the consistent tangent's factors); :class:`J2Plasticity` is this
+module's, so that another law is another class.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Protocol
 
 import numpy as np
 from roughfriction.material import Material
@@ -171,3 +176,32 @@ def radial_return(strain_deviator: np.ndarray, committed: J2State, material: Mat
     )
     gamma = np.where(yielding, 3.0 * shear / (3.0 * shear + hardening) - (1.0 - shrink), 0.0)
     return J2Response(shrink[:, None, None] * trial, state, shrink, gamma, direction, yielding)
+
+
+class MaterialLaw(Protocol):
+    """A pointwise law of the solid's stress deviator at its quadrature points (the pressure
+    K tr(eps) stays elastic, :mod:`solver.solid`).
+
+    Its response to a strain deviator from the committed history is a :class:`J2Response`:
+    the stress deviator s, the trial history, and the consistent tangent
+    ds/d dev(eps) = 2 G beta P_dev - 2 G gamma n (x) n, with G the material's shear modulus
+    (isotropic laws of a scalar internal variable have this form).
+    """
+
+    def return_map(self, strain_deviator: np.ndarray, committed: J2State) -> J2Response:
+        """Stress deviator, trial history and tangent factors of the strain deviators
+        ``strain_deviator`` [-], shape (m, 3, 3), from the ``committed`` history."""
+        ...
+
+
+@dataclass(frozen=True)
+class J2Plasticity:
+    """J2 plasticity with linear isotropic hardening by the radial return map
+    (:func:`radial_return`); ``elastic``: a linear elastic solid (no yield check)."""
+
+    material: Material
+    elastic: bool = False
+
+    def return_map(self, strain_deviator: np.ndarray, committed: J2State) -> J2Response:
+        """:func:`radial_return` of ``strain_deviator`` from ``committed``."""
+        return radial_return(strain_deviator, committed, self.material, self.elastic)

@@ -19,7 +19,7 @@ from dolfinx.fem import petsc as fem_petsc
 from mpi4py import MPI
 from petsc4py import PETSc
 from roughfriction.case import SolverOptions
-from roughfriction.solver.contact import ContactResponse, RigidFlat
+from roughfriction.solver.contact import FRICTIONLESS, ContactResponse, RigidFlat, Trial
 from roughfriction.solver.linear import LinearSolver
 from roughfriction.solver.periodic import PeriodicReduction
 from roughfriction.solver.reduced_assembly import ReducedAssembler, add_rows, compressed_rows
@@ -137,8 +137,8 @@ class ReducedSystem:
         """Reduced rows of the owned surface nodes and the reduced nodes of their 25 neighbours
         on the periodic surface grid (the columns of the contact tangent)."""
         flat, n = self.flat, self.flat.grid_size
-        node_reduced = flat.gather_nodes(self.reduction.reduced_node[flat.nodes])
-        neighbours = flat.neighbours_of(flat.owned_grid)  # -1: padding (ignored by PETSc)
+        node_reduced = flat.surface.gather_nodes(self.reduction.reduced_node[flat.nodes])
+        neighbours = flat.surface.neighbours_of(flat.owned_grid)  # -1: padding (ignored by PETSc)
         self._contact_rows = (3 * node_reduced[flat.owned_grid][:, None]
                               + np.arange(3)).astype(PETSc.IntType)
         self._contact_columns = np.where(neighbours >= 0, node_reduced[neighbours],
@@ -149,10 +149,9 @@ class ReducedSystem:
     # --- assembly -------------------------------------------------------------------------
 
     def assemble(self, displacement: PETSc.Vec, flat_height: float, flat_slide: float,
-                 friction: bool, predictor: bool = False, active: np.ndarray | None = None
-                 ) -> ContactResponse:
+                 trial: Trial = FRICTIONLESS) -> ContactResponse:
         """Stress update, R, b and c at the reduced displacement u_red [m] and the flat at
-        height h [m] and slide U [m] (the contact arguments as in :meth:`RigidFlat.respond`).
+        height h [m] and slide U [m] (``trial`` as in :meth:`RigidFlat.respond`).
         The tangent is assembled separately (:meth:`assemble_tangent`), only where a linear
         solve needs it: line-search trials need the residual alone."""
         solid = self.solid
@@ -166,7 +165,7 @@ class ReducedSystem:
         self.reduction.restrict(self._residual_full, self.residual)
 
         contact = self.flat.respond(solid.displacement.x.array.reshape(-1, 3), flat_height,
-                                    flat_slide, friction, predictor, active)
+                                    flat_slide, trial)
         owned = self.flat.owned_grid
         self.residual.setValues(self._contact_rows.ravel(), contact.node_force[owned].ravel(),
                                 addv=PETSc.InsertMode.ADD_VALUES)

@@ -8,6 +8,7 @@ import resource
 import sys
 import time
 from collections.abc import Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass, replace
 from pathlib import Path
 
@@ -188,8 +189,50 @@ def run_loads(case: FemCase, loads: Sequence[float], comm: MPI.Comm = MPI.COMM_W
         ``block``), which is left in the state of the last load computed.
     """
     progress = progress or stderr_progress(comm)
-    started = time.perf_counter()
+    clock = StageClock()
     case = with_blend_layers_needed(case, progress)
+    model = build_model(case, comm)
+    progress(model.run_started(case.surface.name))
+    clock.setup_done()
+    fields = LoadFields(xdmf_directory, len(loads) > 1, model.block, model.solid, model.flat)
+    path = LoadPath(model.equilibrium, case, model.block.depth, progress)
+    preload = Outcome(True)
+    runs: list[FemRun | None] = [None] * len(loads)
+    order = sorted(range(len(loads)), key=lambda k: loads[k])
+    for position, index in enumerate(order):
+        if len(loads) > 1:
+            progress(LoadStarted(loads[index]))
+        load_case = replace(case, loading=Loading(loads[index], case.loading.normal_only))
+        preload, runs[index], branch = run_load(path, model, load_case, preload, clock, fields)
+        if finished is not None:
+            finished(index, runs[index])
+        if position < len(order) - 1:
+            path.return_to(branch)
+    return runs
+
+
+@dataclass(frozen=True, eq=False)
+class Model:
+    """The discrete problem of a case: the mesh, the solid, u = P u_red, the flat, the
+    equilibrium over them and the sizes of the run (``FemResult.sizes``)."""
+
+    block: Block
+    solid: Solid
+    reduction: PeriodicReduction
+    flat: RigidFlat
+    equilibrium: Equilibrium
+    sizes: dict
+
+    def run_started(self, name: str) -> RunStarted:
+        """The progress record of the start of a run on this model of the surface ``name``."""
+        block, sizes = self.block, self.sizes
+        return RunStarted(name or "surface", block.n, sizes["cells"], block.num_layers,
+                          sizes["reduced_dofs"], sizes["linear_solver"], sizes["ranks"])
+
+
+def build_model(case: FemCase, comm: MPI.Comm) -> Model:
+    """Mesh the block of ``case`` (after the memory gate) and set up its solid, periodic
+    reduction, flat and equilibrium."""
     surface = case.surface
     check_memory(surface.n, case.mesh, comm, surface.spacing)
     block = build_block(surface.heights, surface.spacing, case.mesh, comm)
@@ -208,61 +251,126 @@ def run_loads(case: FemCase, loads: Sequence[float], comm: MPI.Comm = MPI.COMM_W
         "linear_solver": equilibrium.linear_solver.method,
         "ranks": comm.size,
     }
-    progress(RunStarted(surface.name or "surface", block.n, sizes["cells"], block.num_layers,
-                        sizes["reduced_dofs"], sizes["linear_solver"], comm.size))
-    setup_s = time.perf_counter() - started
+    return Model(block, solid, reduction, flat, equilibrium, sizes)
 
-    path = LoadPath(equilibrium, case, block.depth, progress)
-    preload_s = 0.0
-    preload = Outcome(True)
-    runs: list[FemRun | None] = [None] * len(loads)
-    order = sorted(range(len(loads)), key=lambda k: loads[k])
-    for position, index in enumerate(order):
-        load_case = replace(case, loading=Loading(loads[index], case.loading.normal_only))
-        if len(loads) > 1:
-            progress(LoadStarted(loads[index]))
-        directory = xdmf_directory
-        if directory is not None and len(loads) > 1:
-            directory = Path(directory) / f"F{loads[index]:g}"
-        fields = FieldWriter(directory, block, solid, flat) if directory else None
 
-        fallbacks = equilibrium.linear_solver.fallbacks
-        time_mark = time.perf_counter()
+def run_load(path: LoadPath, model: Model, case: FemCase, preload: Outcome, clock: StageClock,
+             fields: LoadFields) -> tuple[Outcome, FemRun, tuple]:
+    """The run of the load of ``case`` on the shared path (:func:`load_on_path`) with its
+    timings, memory and fallback (:class:`SolverProbe`) and fields. Returns the preload's
+    outcome, the run and the branch point to return to."""
+    probe = SolverProbe(model.equilibrium.linear_solver, model.block.mesh.comm)
+    fields.start(case.loading.load_star)
+    preload, outcome, maps, branch = load_on_path(path, case, preload, clock, fields)
+    result = FemResult(list(path.records), outcome.converged, outcome.message,
+                       case.loading.normal_only, clock.timings(),
+                       {**model.sizes, **probe.sizes()})
+    return preload, FemRun(result, maps, model.equilibrium, model.block), branch
+
+
+def load_on_path(path: LoadPath, case: FemCase, preload: Outcome, clock: StageClock,
+                 fields: LoadFields) -> tuple[Outcome, Outcome, dict, tuple]:
+    """One load of ``case`` on the shared normal loading path: the preload goes on to its F_n
+    (unless an earlier load's preload failed: ``preload`` is that outcome), its end is mapped
+    and written, then, unless normal-only, the flat slides from there to inception, mapped and
+    written again. Returns the preload's outcome, the load's, its maps (``FemRun.maps``) and the
+    branch point to return to (:meth:`LoadPath.branch_point`)."""
+    flat = path.equilibrium.flat
+    with clock.preloading():
         if preload.converged:
-            preload = path.preload(load_case.normal_force,
-                                   then_slide=not load_case.loading.normal_only)
-        preload_s += time.perf_counter() - time_mark
-        outcome = preload
-        maps = {}
-        if path.contact is not None:
-            maps.update(contact_maps(flat, path.contact, "normal"))
-            if fields:
-                fields.write(0.0, path.contact)
-
-        time_mark = time.perf_counter()
+            preload = path.preload(case.normal_force, then_slide=not case.loading.normal_only)
+    outcome, maps = preload, {}
+    if path.contact is not None:
+        maps.update(contact_maps(flat, path.contact, "normal"))
+        fields.write(0.0, path.contact)
+    with clock.sliding():
         branch = path.branch_point()
         if preload.converged and not case.loading.normal_only:
             normal_records = len(path.records)
             outcome = path.slide()
             if len(path.records) > normal_records:
                 maps.update(contact_maps(flat, path.contact, "sliding"))
-                if fields:
-                    fields.write(1.0, path.contact)
-        if fields:
-            fields.close()
-        sliding_s = time.perf_counter() - time_mark
+                fields.write(1.0, path.contact)
+        fields.close()
+    return preload, outcome, maps, branch
 
-        timings = {"setup_s": setup_s, "preload_s": preload_s, "sliding_s": sliding_s,
-                   "total_s": setup_s + preload_s + sliding_s}
-        run_sizes = {**sizes, "peak_memory_gb": comm.allreduce(peak_memory_gb(), op=MPI.SUM),
-                     "linear_solver_fallback": (equilibrium.linear_solver.fell_back
-                                                if equilibrium.linear_solver.fallbacks > fallbacks
-                                                else "")}
-        result = FemResult(list(path.records), outcome.converged, outcome.message,
-                           case.loading.normal_only, timings, run_sizes)
-        runs[index] = FemRun(result, maps, equilibrium, block)
-        if finished is not None:
-            finished(index, runs[index])
-        if position < len(order) - 1:
-            path.return_to(branch)
-    return runs
+
+# --- observers of a run: wall time, memory and solver fallbacks, field output ----------------
+
+
+class StageClock:
+    """Wall time of a run's stages [s]: the setup, the preload (shared by the loads: summed
+    over those computed so far) and the last load's sliding."""
+
+    def __init__(self):
+        self.started = time.perf_counter()
+        self.setup_s = self.preload_s = self.sliding_s = 0.0
+
+    def setup_done(self) -> None:
+        """The setup ends now."""
+        self.setup_s = time.perf_counter() - self.started
+
+    @contextmanager
+    def preloading(self):
+        """Add the time of the block to the preload's."""
+        mark = time.perf_counter()
+        yield
+        self.preload_s += time.perf_counter() - mark
+
+    @contextmanager
+    def sliding(self):
+        """The time of the block is the sliding's."""
+        mark = time.perf_counter()
+        yield
+        self.sliding_s = time.perf_counter() - mark
+
+    def timings(self) -> dict:
+        """``FemResult.timings``: setup_s, preload_s, sliding_s and their sum total_s [s]."""
+        return {"setup_s": self.setup_s, "preload_s": self.preload_s,
+                "sliding_s": self.sliding_s,
+                "total_s": self.setup_s + self.preload_s + self.sliding_s}
+
+
+class SolverProbe:
+    """What one load's run adds to the model's sizes, from its start (now) to :meth:`sizes`:
+    the peak memory summed over the ranks [GB] and the linear solver's fallback, if it fell
+    back meanwhile."""
+
+    def __init__(self, linear_solver, comm: MPI.Comm):
+        self.linear_solver, self.comm = linear_solver, comm
+        self.fallbacks = linear_solver.fallbacks
+
+    def sizes(self) -> dict:
+        """``peak_memory_gb`` and ``linear_solver_fallback`` ("" if none) (a collective call)."""
+        solver = self.linear_solver
+        return {"peak_memory_gb": self.comm.allreduce(peak_memory_gb(), op=MPI.SUM),
+                "linear_solver_fallback": (solver.fell_back
+                                           if solver.fallbacks > self.fallbacks else "")}
+
+
+class LoadFields:
+    """XDMF fields of each load (:class:`solver.fields.FieldWriter`): at the end of its preload
+    (time 0) and at inception (time 1), to ``directory/fields.xdmf``, or with ``several`` loads
+    to ``directory/F<F*>/fields.xdmf``; nothing without a directory."""
+
+    def __init__(self, directory, several: bool, block: Block, solid: Solid, flat: RigidFlat):
+        self.directory, self.several = directory, several
+        self.model = (block, solid, flat)
+        self.writer = None
+
+    def start(self, load: float) -> None:
+        """Open the fields of the load F* = ``load``."""
+        if self.directory:
+            directory = Path(self.directory) / f"F{load:g}" if self.several else self.directory
+            self.writer = FieldWriter(directory, *self.model)
+
+    def write(self, time_value: float, contact: ContactResponse) -> None:
+        """The fields of the current state, with its contact state, at ``time_value``."""
+        if self.writer is not None:
+            self.writer.write(time_value, contact)
+
+    def close(self) -> None:
+        """Close the load's fields."""
+        if self.writer is not None:
+            self.writer.close()
+            self.writer = None

@@ -25,7 +25,13 @@ from dolfinx import fem
 from dolfinx import mesh as dolfinx_mesh
 from mpi4py import MPI
 from roughfriction.material import Material
-from roughfriction.solver.plasticity import J2Response, PlasticHistory, radial_return, von_mises
+from roughfriction.solver.plasticity import (
+    J2Plasticity,
+    J2Response,
+    MaterialLaw,
+    PlasticHistory,
+    von_mises,
+)
 
 #: Quadrature degree of the 2 x 2 x 2 Gauss rule on hexahedra (basix: degree 2 and 3 give it).
 DEVIATORIC_DEGREE = 2
@@ -58,6 +64,9 @@ class Solid:
         Linear elastic solid (no yield check).
     integration : {"selective", "full"}
         Pressure at 1 point (SRI) or at the 2 x 2 x 2 points.
+    law : MaterialLaw, optional
+        The deviatoric law at the Gauss points; default J2 plasticity of ``material``
+        (:class:`solver.plasticity.J2Plasticity`, elastic if ``elastic``).
 
     Attributes
     ----------
@@ -69,11 +78,12 @@ class Solid:
     """
 
     def __init__(self, mesh, material: Material, elastic: bool = False,
-                 integration: str = "selective"):
+                 integration: str = "selective", law: MaterialLaw | None = None):
         if integration not in VOLUMETRIC_DEGREE:
             raise ValueError(f"integration must be one of {sorted(VOLUMETRIC_DEGREE)}")
         self.material = material
         self.elastic = elastic
+        self.law = law or J2Plasticity(material, elastic)
         self.V = fem.VectorFunctionSpace(mesh, ("Lagrange", 1))
         self.displacement = fem.Function(self.V, name="displacement")
 
@@ -98,7 +108,10 @@ class Solid:
 
         self.committed = PlasticHistory.virgin(self.num_cells * self.num_points)
         self._return_map()  # of the zero displacement: the virgin state
+        self._build_forms(mesh, material, integration)
 
+    def _build_forms(self, mesh, material: Material, integration: str) -> None:
+        """The volume, plastic-volume, residual and tangent forms of the solid."""
         dx_dev = ufl.dx(metadata={"quadrature_degree": DEVIATORIC_DEGREE,
                                   "quadrature_scheme": "default"})
         dx_vol = ufl.dx(metadata={"quadrature_degree": VOLUMETRIC_DEGREE[integration],
@@ -186,8 +199,8 @@ class Solid:
             cells = self._cells[first:first + CELLS_AT_ONCE]
             points = slice(first * num_points, (first + len(cells)) * num_points)
             strain_deviator = self._strain_deviator.eval(cells).reshape(-1, 3, 3)
-            response = radial_return(strain_deviator, committed.dense(points.start, points.stop),
-                                     self.material, self.elastic)
+            response = self.law.return_map(strain_deviator,
+                                           committed.dense(points.start, points.stop))
             self._write_quadrature(response, points)
             parts.append(PlasticHistory.of_block(committed.num_points, points.start,
                                                  response.state))

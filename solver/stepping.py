@@ -17,7 +17,7 @@ import numpy as np
 from roughfriction.case import FemCase
 from roughfriction.solver.contact import ContactResponse
 from roughfriction.solver.equilibrium import Equilibrium
-from roughfriction.solver.newton import LoadStep, NewtonReport
+from roughfriction.solver.newton import Control, Finish, Friction, LoadStep, NewtonReport
 from roughfriction.solver.progress import StepCut
 from roughfriction.solver.results import (
     SlipState,
@@ -174,7 +174,9 @@ class LoadPath:
                 self._aim_height(aim)
             elif last is not None:
                 equilibrium.extrapolate((aim - self.normal_force) / last)
-            report = self._attempt(LoadStep(aim, hold_height=hold, marks_path=hold or then_slide))
+            report = self._attempt(LoadStep(
+                aim, control=Control.HEIGHT if hold else Control.FORCE,
+                finish=Finish.PATH if hold or then_slide else Finish.TOLERANCES))
             if report is None:
                 return Outcome(False, f"step limit reached during preload at F_n = {start:.4g}"
                                       " x target")
@@ -238,8 +240,9 @@ class LoadPath:
             trial = slide + size.value
             if last is not None:
                 self.equilibrium.extrapolate(size.value / last)
-            report = self._attempt(LoadStep(target, trial, friction=True,
-                                            predictor=last is None, marks_path=True))
+            report = self._attempt(LoadStep(
+                target, trial, Friction.PREDICTED if last is None else Friction.PLACED,
+                finish=Finish.PATH))
             if (report is not None and report.converged
                     and self._slips(report.contact, forces)):
                 report = self._tighten(report, target, trial)
@@ -269,7 +272,7 @@ class LoadPath:
             return None
         report = self.equilibrium.solve(step)
         if not report.converged:
-            self._reject(report, step.friction)
+            self._reject(report, step.frictional)
         return report
 
     def _slips(self, contact: ContactResponse, forces: list[float]) -> bool:
@@ -291,8 +294,7 @@ class LoadPath:
         contact node slips, and the slipping points below p_r at the patch edges couple their
         traction to their pressure, which the symmetric tangent leaves out (it then converges
         only linearly)."""
-        final = self.equilibrium.solve(LoadStep(normal_force, slide, friction=True,
-                                                predictor=False, exact_tangent=True))
+        final = self.equilibrium.solve(LoadStep(normal_force, slide, Friction.EXACT))
         final = dataclasses.replace(
             final, iterations=report.iterations + final.iterations,
             krylov_iterations=report.krylov_iterations + final.krylov_iterations)

@@ -27,13 +27,15 @@ def only_mark_the_path(monkeypatch):
     path where ``rule(marks_path, friction, hold_height)`` says so (the others are solved to
     the end)."""
     from roughfriction.solver.equilibrium import Equilibrium  # the FEM, only where used
+    from roughfriction.solver.newton import Finish
 
     solve = Equilibrium.solve
 
     def patch(rule):
         def patched(self, step):
-            marks_path = rule(step.marks_path, step.friction, step.hold_height)
-            return solve(self, dataclasses.replace(step, marks_path=marks_path))
+            marks_path = rule(step.marks_path, step.frictional, step.hold_height)
+            finish = Finish.PATH if marks_path else Finish.TOLERANCES
+            return solve(self, dataclasses.replace(step, finish=finish))
 
         monkeypatch.setattr(Equilibrium, "solve", patched)
 

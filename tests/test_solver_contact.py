@@ -7,14 +7,18 @@ from mpi4py import MPI
 from roughfriction.case import MeshOptions, SolverOptions
 from roughfriction.errors import InputError
 from roughfriction.geometry.adaptive import block_layout
-from roughfriction.solver.contact import NEIGHBOURS, RigidFlat, face_quadrature
+from roughfriction.solver.contact import RigidFlat, Tangent, Trial
+from roughfriction.solver.contact_faces import face_quadrature
 from roughfriction.solver.contact_law import ContactLaw
+from roughfriction.solver.contact_quadrature import NEIGHBOURS
 
 TAU_C = 577e6  # [Pa]
 RAMP = 10e6  # [Pa]
 PENALTY = 1e18  # [Pa/m]
 SPACING = 1e-6  # [m]
 N = 4  # faces per side
+#: The trial of a sliding step: frictional, no predictor, the law's contact set, exact tangent.
+FRICTIONAL = Trial(friction=True)
 
 
 def uniform_cells(n):
@@ -61,13 +65,13 @@ def test_points_see_the_bilinear_surface_through_the_nodes():
     shape, _ = face_quadrature(3)
     face = 2 * N + 3  # face (2, 3): corners (2,3), (3,3), (2,0), (3,0) across the period
     corners = heights[[2, 3, 2, 3], [3, 3, 0, 0]]
-    np.testing.assert_allclose(flat.heights.reshape(N * N, 9)[face], shape @ corners)
+    np.testing.assert_allclose(flat.surface.heights.reshape(N * N, 9)[face], shape @ corners)
 
 
 def test_uniform_pressure_gives_consistent_nodal_forces_and_full_area():
     pressure = 1e9
     flat = flat_over()
-    response = flat.respond(still(), -pressure / PENALTY, 0.0, friction=False)
+    response = flat.respond(still(), -pressure / PENALTY, 0.0)
     np.testing.assert_allclose(response.pressure, pressure)
     np.testing.assert_allclose(response.node_force, [[0.0, 0.0, pressure * SPACING**2]] * N**2)
     assert flat.normal_force(response) == pytest.approx(pressure * (N * SPACING) ** 2)
@@ -83,7 +87,7 @@ def test_a_raised_node_alone_touches_with_its_tributary_area(points):
     heights = np.zeros((N, N))
     heights[1, 1] = 1e-8
     flat = flat_over(heights, points=points)
-    response = flat.respond(still(), 0.5e-8, 0.0, friction=False)
+    response = flat.respond(still(), 0.5e-8, 0.0)
     shape, weight = face_quadrature(points)
     mean = 4 * np.sum(weight * shape[:, 0] * (np.argmax(shape, axis=1) == 0))
     assert -response.node_gap[5] == pytest.approx(mean * 1e-8 - 0.5e-8)
@@ -112,10 +116,10 @@ def test_a_frozen_set_keeps_its_nodes_and_takes_in_penetrating_ones():
     heights = np.zeros((N, N))
     heights[1, 1] = 1e-8
     flat = flat_over(heights)
-    free = flat.respond(still(), 0.5e-8, 0.0, friction=False)
+    free = flat.respond(still(), 0.5e-8, 0.0)
     frozen = np.zeros_like(free.node_active)
     frozen[0] = True  # node (0, 0), below the flat: in tension
-    response = flat.respond(still(), 0.5e-8, 0.0, friction=False, active=frozen)
+    response = flat.respond(still(), 0.5e-8, 0.0, Trial(active=frozen))
     np.testing.assert_array_equal(response.node_active, free.node_active | frozen)
     assert free.node_active.any() and not free.node_active[0]
     assert response.node_pressure[0] < 0.0
@@ -129,7 +133,7 @@ def test_slipping_point_carries_the_cap_along_the_trial_direction(pressure):
     flat = anchored(flat_over())
     height = -pressure / PENALTY  # gap -p / eps: the surface presses with p
     slide = 3 * TAU_C / PENALTY  # trial traction 3 tau_c along x
-    response = flat.respond(still(), height, slide, friction=True)
+    response = flat.respond(still(), height, slide, FRICTIONAL)
     cap = TAU_C * min(1.0, pressure / RAMP)
     assert response.slipping.all() and response.in_contact.all()
     np.testing.assert_allclose(response.traction, [[cap, 0.0]] * len(response.traction))
@@ -147,7 +151,7 @@ def test_slipping_point_carries_the_cap_along_the_trial_direction(pressure):
 def test_point_below_its_cap_sticks_with_the_full_stick_penalty(tangential):
     flat = anchored(flat_over(tangential=tangential))
     slide = 0.5 * TAU_C / tangential
-    response = flat.respond(still(), -1e9 / PENALTY, slide, friction=True)
+    response = flat.respond(still(), -1e9 / PENALTY, slide, FRICTIONAL)
     assert not response.slipping.any()
     np.testing.assert_allclose(response.traction[:, 0], 0.5 * TAU_C)
     # a rigid translation of every node: the 25 blocks of a row sum to the point law times h^2
@@ -163,11 +167,11 @@ def test_slipping_point_drags_its_stick_point_to_the_cap_over_the_stick_penalty(
     for tangential in (PENALTY, 0.1 * PENALTY):
         flat = anchored(flat_over(tangential=tangential))
         slide = 3 * TAU_C / tangential
-        response = flat.respond(still(), -1e9 / PENALTY, slide, friction=True)
+        response = flat.respond(still(), -1e9 / PENALTY, slide, FRICTIONAL)
         assert response.slipping.all()
         np.testing.assert_allclose(response.stick_offset[:, 0], slide - TAU_C / tangential)
         flat.commit(response)
-        again = flat.respond(still(), -1e9 / PENALTY, slide, friction=True)
+        again = flat.respond(still(), -1e9 / PENALTY, slide, FRICTIONAL)
         np.testing.assert_allclose(again.traction[:, 0], TAU_C)
 
 
@@ -176,8 +180,9 @@ def test_point_at_vanishing_pressure_carries_vanishing_shear():
     at tau_c."""
     slide = 0.9 * TAU_C / PENALTY
     for pressure in (1e6, 1e3, 1.0):
-        with_ramp = anchored(flat_over()).respond(still(), -pressure / PENALTY, slide, True)
-        pure = anchored(flat_over(ramp=0.0)).respond(still(), -pressure / PENALTY, slide, True)
+        with_ramp = anchored(flat_over()).respond(still(), -pressure / PENALTY, slide, FRICTIONAL)
+        pure = anchored(flat_over(ramp=0.0)).respond(still(), -pressure / PENALTY, slide,
+                                                     FRICTIONAL)
         np.testing.assert_allclose(with_ramp.traction[:, 0], TAU_C * pressure / RAMP)
         np.testing.assert_allclose(pure.traction[:, 0], 0.9 * TAU_C)
 
@@ -191,12 +196,12 @@ def test_open_newly_touching_and_frictionless_points_carry_no_shear():
     flat.committed.anchored[newly] = False
     slide = 0.5 * TAU_C / PENALTY
     # nodes j = 0, 1 have a lowered neighbour: their tributary mean lies 1.25 nm below them
-    response = flat.respond(still(), -5e9 / PENALTY, slide, friction=True)
+    response = flat.respond(still(), -5e9 / PENALTY, slide, FRICTIONAL)
     faces = response.in_contact.reshape(N, N, -1)
     assert faces[:, 0].all() and not faces[:, 2].any()
     np.testing.assert_allclose(response.traction[~response.in_contact | newly], 0.0)
     assert (response.traction[response.in_contact & ~newly, 0] > 0).all()
-    frictionless = flat.respond(still(), -5e9 / PENALTY, slide, friction=False)
+    frictionless = flat.respond(still(), -5e9 / PENALTY, slide)
     np.testing.assert_allclose(frictionless.traction, 0.0)
 
 
@@ -214,12 +219,12 @@ def test_nodal_tangent_and_height_derivative_match_finite_differences(pressure, 
     flat.committed.stick_offset[:] = [[0.0, -0.5 * slide * TAU_C / tangential]]
     height, flat_slide = -pressure / PENALTY, slide * TAU_C / tangential * np.sqrt(0.75)
     u0 = rng.normal(size=(N * N, 3)) * 1e-3 * pressure / PENALTY
-    response = flat.respond(u0, height, flat_slide, friction=True)
+    response = flat.respond(u0, height, flat_slide, FRICTIONAL)
     step = 1e-5 * pressure / PENALTY  # [m], well inside every regime
     scale = PENALTY * SPACING**2
 
     def force(u, h=height):
-        return flat.respond(u, h, flat_slide, friction=True).node_force
+        return flat.respond(u, h, flat_slide, FRICTIONAL).node_force
 
     row = 5  # node (1, 1)
     i, j = divmod(row, N)
@@ -238,7 +243,7 @@ def test_nodal_tangent_and_height_derivative_match_finite_differences(pressure, 
 
 
 def test_the_symmetric_tangent_drops_only_the_ramp_coupling():
-    """With ``symmetric_tangent`` the forces are unchanged and the tangent loses exactly the
+    """With ``Tangent.SYMMETRIC`` the forces are unchanged and the tangent loses exactly the
     dt/dp blocks of points slipping below p_r (the pressure columns of the shear rows)."""
     rng = np.random.default_rng(2)
     pressure = 2.5e6  # below the ramp pressure: the slipping points couple
@@ -246,9 +251,8 @@ def test_the_symmetric_tangent_drops_only_the_ramp_coupling():
     flat = anchored(flat_over(heights))
     u0 = rng.normal(size=(N * N, 3)) * 1e-3 * pressure / PENALTY
     args = (u0, -pressure / PENALTY, 3 * TAU_C / PENALTY)
-    exact = flat.respond(*args, friction=True)
-    flat.symmetric_tangent = True
-    approximate = flat.respond(*args, friction=True)
+    exact = flat.respond(*args, FRICTIONAL)
+    approximate = flat.respond(*args, Trial(friction=True, tangent=Tangent.SYMMETRIC))
     assert exact.coupled and approximate.coupled
     assert not exact.symmetric and approximate.symmetric
     np.testing.assert_array_equal(approximate.node_force, exact.node_force)
@@ -267,7 +271,7 @@ def test_touching_height_carries_the_force_with_springs_at_the_nodes():
     flat = flat_over(heights)
     force = 1e-3  # [N]
     h = flat.touching_height(still(), force, 2.2e11)
-    tops = -flat.respond(still(), 0.0, 0.0, friction=False).node_gap  # h - g~_a [m]
+    tops = -flat.respond(still(), 0.0, 0.0).node_gap  # h - g~_a [m]
     assert 0.0 < h < tops.max()
     stiffness = 1.0 / (1.0 / (PENALTY * SPACING**2) + 0.95 / (2.2e11 * SPACING))
     assert np.sum(stiffness * np.maximum(tops - h, 0.0)) == pytest.approx(force)
@@ -281,8 +285,8 @@ def central_differences(flat, u0, height, slide, step):
         for c in range(3):
             e = np.zeros_like(u0)
             e[b, c] = step
-            forward = flat.respond(u0 + e, height, slide, friction=True).node_force
-            backward = flat.respond(u0 - e, height, slide, friction=True).node_force
+            forward = flat.respond(u0 + e, height, slide, FRICTIONAL).node_force
+            backward = flat.respond(u0 - e, height, slide, FRICTIONAL).node_force
             jacobian[:, :, b, c] = (forward - backward) / (2 * step)
     return jacobian
 
@@ -298,7 +302,7 @@ def test_nodal_tangent_of_a_partial_contact_is_held_for_the_stiff_nodes_only():
     rng = np.random.default_rng(3)
     u0 = rng.normal(size=(n * n, 3)) * 1e-3 * pressure / PENALTY
     height, flat_slide = heights[3, 4] - pressure / PENALTY, 2 * TAU_C / PENALTY
-    response = flat.respond(u0, height, flat_slide, friction=True)
+    response = flat.respond(u0, height, flat_slide, FRICTIONAL)
     assert 0 < np.count_nonzero(response.in_contact) < response.in_contact.size
     nodes, _ = response.node_blocks
     near = [((3 + di) % n) * n + (4 + dj) % n for di in range(-2, 3) for dj in range(-2, 3)]
@@ -320,12 +324,12 @@ def test_a_failed_step_returns_to_the_committed_history():
     returns to an older history whose arrays the later steps did not change."""
     flat = anchored(flat_over())
     start = flat.committed
-    first = flat.respond(still(), -1e9 / PENALTY, 3 * TAU_C / PENALTY, friction=True)
+    first = flat.respond(still(), -1e9 / PENALTY, 3 * TAU_C / PENALTY, FRICTIONAL)
     flat.augment(first)
     flat.commit(first)
     assert flat.committed.multiplier is flat.multiplier
     np.testing.assert_array_equal(flat.committed.stick_offset, first.stick_offset)
-    second = flat.respond(still(), -2e9 / PENALTY, 6 * TAU_C / PENALTY, friction=True)
+    second = flat.respond(still(), -2e9 / PENALTY, 6 * TAU_C / PENALTY, FRICTIONAL)
     flat.augment(second)
     assert not np.array_equal(flat.multiplier, flat.committed.multiplier)
     flat.restore()
@@ -342,7 +346,7 @@ def adaptive_flat(level=1, own=4, tangential=0.1 * PENALTY, peak=None):
     of side 2^level SPACING, own cell (1, 2) refined to SPACING; the free surface nodes' rows
     are 0..m-1. ``peak``: a finest grid node raised by that height [m] (else flat)."""
     from roughfriction.geometry.adaptive import adaptive_layout
-    from roughfriction.solver.contact import surface_faces
+    from roughfriction.solver.contact_faces import surface_faces
 
     zone = np.zeros((own, own), bool)
     zone[1, 2] = True
@@ -363,12 +367,12 @@ def test_faces_of_varying_width_tile_the_surface_and_carry_a_uniform_pressure():
     n = flat.grid_size
     assert not faces.uniform and set(faces.width) == {1, 2, 4}
     total = (n * SPACING) ** 2
-    assert flat.face_area.sum() == pytest.approx(total, rel=1e-12)
-    assert flat.node_area.sum() == pytest.approx(total, rel=1e-12)
-    assert flat.integrate(np.ones(len(flat.point_area))) == pytest.approx(total, rel=1e-12)
+    assert flat.surface.face_area.sum() == pytest.approx(total, rel=1e-12)
+    assert flat.surface.node_area.sum() == pytest.approx(total, rel=1e-12)
+    assert flat.integrate(np.ones(len(flat.surface.point_area))) == pytest.approx(total, rel=1e-12)
     depth = 1e9 / PENALTY  # penetration of the flat [m]: p = 1 GPa everywhere
-    response = flat.respond(np.zeros((len(flat.nodes), 3)), -depth, 0.0, friction=False)
-    free = flat.node_free
+    response = flat.respond(np.zeros((len(flat.nodes), 3)), -depth, 0.0)
+    free = flat.surface.node_free
     np.testing.assert_allclose(response.node_pressure[free], 1e9, rtol=1e-9)
     assert flat.normal_force(response) == pytest.approx(1e9 * total, rel=1e-9)
     assert response.node_force[:, 2].sum() == pytest.approx(1e9 * total, rel=1e-9)
@@ -387,7 +391,7 @@ def test_faces_of_varying_width_tile_the_surface_and_carry_a_uniform_pressure():
 
 def test_the_tangent_of_faces_of_varying_width_matches_central_differences():
     """A peak at a free node next to the refined cell, sliding: the nodal tangent on the
-    general coupling pattern (``RigidFlat.neighbours``) matches central differences of the
+    general coupling pattern (``SurfaceQuadrature.neighbours``) matches central differences of the
     nodal residual, hanging corners tied to their masters."""
     pressure = 1e9
     n = 8
@@ -398,14 +402,14 @@ def test_the_tangent_of_faces_of_varying_width_matches_central_differences():
     rng = np.random.default_rng(4)
     u0 = rng.normal(size=(m, 3)) * 1e-3 * pressure / PENALTY
     height, slide = peak[1] - pressure / PENALTY, 2 * TAU_C / PENALTY
-    response = flat.respond(u0, height, slide, friction=True)
+    response = flat.respond(u0, height, slide, FRICTIONAL)
     assert 0 < np.count_nonzero(response.in_contact) < response.in_contact.size
     row_of = np.full(n * n, -1)
     row_of[flat.owned_grid] = np.arange(m)
     jacobian = central_differences(flat, u0, height, slide, 1e-5 * pressure / PENALTY)
     tangent = np.zeros_like(jacobian)
     for a in flat.owned_grid:
-        for slot, b in enumerate(flat.neighbours_of(a)):
+        for slot, b in enumerate(flat.surface.neighbours_of(a)):
             if b >= 0:
                 tangent[a, :, row_of[b], :] += response.node_stiffness[a, slot]
     assert np.abs(jacobian).max() > 0.1 * PENALTY * SPACING**2
@@ -417,7 +421,7 @@ def test_the_tangent_of_faces_of_varying_width_matches_central_differences():
 def tangent_entries_of(flat, response, owned):
     """The tangent blocks [N/m] of the ``owned`` nodes keyed by (node a, neighbour b)."""
     nodes, blocks = response.node_blocks
-    neighbours = flat.neighbours_of(nodes)
+    neighbours = flat.surface.neighbours_of(nodes)
     return {(a, b): blocks[row, slot] for row, a in enumerate(nodes) if a in owned
             for slot, b in enumerate(neighbours[row]) if b >= 0 and blocks[row, slot].any()}
 
@@ -430,7 +434,7 @@ def test_ranks_evaluating_their_own_faces_reproduce_the_single_rank_contact(unif
     height over all ranks, equal a single rank's over two sliding iterates and an Uzawa
     update (each rank evaluating fewer faces than the surface has)."""
     from roughfriction.geometry.adaptive import adaptive_layout
-    from roughfriction.solver.contact import surface_faces
+    from roughfriction.solver.contact_faces import surface_faces
 
     comm = MPI.COMM_WORLD
     if uniform:
@@ -457,10 +461,10 @@ def test_ranks_evaluating_their_own_faces_reproduce_the_single_rank_contact(unif
 
     whole, part = flat(MPI.COMM_SELF, np.ones(len(grid), bool)), flat(comm, mine)
     owned = set(part.owned_grid)
-    assert len(part.face_ids) < part.num_faces or comm.size == 1
+    assert len(part.surface.face_ids) < part.surface.num_faces or comm.size == 1
     height = np.quantile(heights, 0.7)
     for predictor in (True, False):
-        arguments = (height, 2 * TAU_C / (1e-3 * PENALTY), True, predictor)
+        arguments = (height, 2 * TAU_C / (1e-3 * PENALTY), Trial(True, predictor))
         single = whole.respond(displacement, *arguments)
         shared = part.respond(displacement[mine], *arguments)
         assert 0 < whole.count(single.node_active) < len(grid)

@@ -10,9 +10,9 @@ from roughfriction.case import FemCase, Loading, SolverOptions  # noqa: E402
 from roughfriction.geometry.generate import builtin_surface  # noqa: E402
 from roughfriction.geometry.surface import Surface, surface_on_fem_grid  # noqa: E402
 from roughfriction.solver import newton as newton_module  # noqa: E402
-from roughfriction.solver.contact import RigidFlat  # noqa: E402
+from roughfriction.solver.contact import FRICTIONLESS, RigidFlat, Tangent, Trial  # noqa: E402
 from roughfriction.solver.equilibrium import Equilibrium  # noqa: E402
-from roughfriction.solver.newton import LoadStep, NewtonSolve  # noqa: E402
+from roughfriction.solver.newton import Control, LoadStep, NewtonSolve  # noqa: E402
 from roughfriction.solver.reduced_system import ReducedSystem  # noqa: E402
 from roughfriction.solver.run import run  # noqa: E402
 from roughfriction.solver.stepping import LoadPath  # noqa: E402
@@ -37,12 +37,12 @@ def test_a_converged_step_is_one_newton_increment_from_the_solution(monkeypatch)
         if step.marks_path:
             self.flat.multiplier = solved_with
         if report.converged and report.iterations > 0:
-            self.assemble(step.flat_slide, step.friction)
+            self.assemble(step.flat_slide, Trial(step.frictional))
             self.assemble_tangent(report.contact)
             force_error = (0.0 if step.hold_height
                            else self.flat.normal_force(report.contact) - step.normal_force)
             self.system.bordered_solve(force_error, 1e-12, step.hold_height)
-            tolerance = (newton_module.UZAWA_INCREMENT_TOLERANCE if step.marks_path
+            tolerance = (newton_module.DEFAULT_OPTIONS.uzawa_increment_tolerance if step.marks_path
                          else self.options.increment_tolerance)
             moves.append(self.system.x1.norm(PETSc.NormType.NORM_INFINITY)
                          / (tolerance * self.spacing))
@@ -74,7 +74,7 @@ def test_the_path_slope_is_the_derivative_of_the_held_force(monkeypatch, only_ma
         slope = equilibrium.path_slope()
         height_change = 1e-3 * self.normal_force / slope
         equilibrium.flat_height += height_change  # (u from the committed step: Newton's work)
-        report = equilibrium.solve(LoadStep(aim, hold_height=True))
+        report = equilibrium.solve(LoadStep(aim, control=Control.HEIGHT))
         assert report.converged, report.reason
         force = equilibrium.flat.normal_force(report.contact)
         slopes.append(((force - self.normal_force) / height_change, slope))
@@ -134,11 +134,11 @@ def test_sliding_steps_before_inception_only_mark_the_path(only_mark_the_path):
 
 def test_a_step_that_marks_the_path_carries_its_multiplier_update(monkeypatch):
     """A step that marks the path (held preload, sliding before inception) is one Newton solve:
-    where a node penetrates deeper than the tolerance (within ``CARRIED_PENETRATION`` times
-    it: all of them here), the multipliers are updated to its pressures, and the next step
-    starts from them instead of a re-solve of this one. Steps solved to the end (the last
-    preload step, inception) still meet the penetration tolerance. G5 re-gridded to 16 x 16
-    at F* = 0.5."""
+    where a node penetrates deeper than the tolerance (within
+    ``NewtonOptions.carried_penetration`` times it: all of them here), the multipliers are
+    updated to its pressures, and the next step starts from them instead of a re-solve of this
+    one. Steps solved to the end (the last preload step, inception) still meet the penetration
+    tolerance. G5 re-gridded to 16 x 16 at F* = 0.5."""
     solve, newton = Equilibrium.solve, NewtonSolve.run
     calls, path_steps, final_steps = [0], [], []
 
@@ -180,9 +180,9 @@ def test_sliding_goes_on_with_the_exact_tangent_where_the_symmetric_one_stalls(m
     exact_while_coupled = []
     respond = RigidFlat.respond
 
-    def spy(flat, *args, **kwargs):
-        response = respond(flat, *args, **kwargs)
-        exact_while_coupled.append(response.coupled and not flat.symmetric_tangent)
+    def spy(flat, displacement, flat_height, flat_slide, trial=FRICTIONLESS):
+        response = respond(flat, displacement, flat_height, flat_slide, trial)
+        exact_while_coupled.append(response.coupled and trial.tangent is Tangent.EXACT)
         return response
 
     monkeypatch.setattr(RigidFlat, "respond", spy)
@@ -212,7 +212,7 @@ def test_a_singular_exact_tangent_gives_way_to_the_symmetric_one_for_a_step(monk
 
     def spy(self, *args, **kwargs):
         if flipped:
-            symmetric_after.append(self.flat.symmetric_tangent)
+            symmetric_after.append(self.trial.tangent is Tangent.SYMMETRIC)
         return line_search(self, *args, **kwargs)
 
     monkeypatch.setattr(ReducedSystem, "height_slope", singular_once)
@@ -272,7 +272,7 @@ def test_the_frictionless_newton_steps_descend_the_energy(monkeypatch):
     original = NewtonSolve._line_search
 
     def recorded(self, height_increment):
-        if not self.step.friction:
+        if not self.step.frictional:
             slopes[self.step.hold_height].append(
                 self.system.x1.dot(self.system.residual)
                 - height_increment * self.state.force_error)

@@ -8,7 +8,13 @@ import numpy as np
 import pytest
 from roughfriction.case import SolverOptions  # noqa: E402
 from roughfriction.solver import newton as newton_module  # noqa: E402
-from roughfriction.solver.newton import LoadStep, NewtonSolve, Tolerances  # noqa: E402
+from roughfriction.solver.newton import (  # noqa: E402
+    Control,
+    Friction,
+    LoadStep,
+    NewtonSolve,
+    Tolerances,
+)
 
 pytestmark = pytest.mark.fem
 
@@ -44,9 +50,9 @@ class ScriptedNewton(NewtonSolve):
                                  x1=SimpleNamespace(norm=lambda kind: increment))
         equilibrium = SimpleNamespace(
             system=system, options=SolverOptions(), spacing=1.0,
-            flat=SimpleNamespace(symmetric_tangent=True, count=np.count_nonzero),
+            flat=SimpleNamespace(count=np.count_nonzero),
             assemble_tangent=lambda contact: None)
-        super().__init__(equilibrium, LoadStep(1.0, 0.0, friction=True, hold_height=True),
+        super().__init__(equilibrium, LoadStep(1.0, 0.0, Friction.PREDICTED, Control.HEIGHT),
                          Tolerances(tolerance, 1e-4), predictor=False)
         self._scripted = self._iterate(start)
         self._script = list(script)
@@ -57,8 +63,8 @@ class ScriptedNewton(NewtonSolve):
         contact = SimpleNamespace(node_active=np.ones(4, dtype=bool))
         return newton_module._Iterate(contact, residual, 0.0)
 
-    def _evaluate(self, predictor):
-        if self.active is None and self._done in self._law:
+    def _evaluate(self, trial):
+        if trial.active is None and self._done in self._law:
             return self._iterate(self._law[self._done])
         return self._scripted
 
@@ -74,7 +80,7 @@ FROZEN = [(0.5, 5e-5), (0.5, 3e-5), (0.5, 2e-5)] + HALVING
 
 
 @pytest.mark.parametrize("start, script, law, tolerance, iterations, residual", [
-    # tight: accepted at the first iterate within RESIDUAL_FLOOR after a cut step
+    # tight: accepted at the first iterate within the residual floor after a cut step
     (2.5e-5, HALVING, None, 1e-6, 2, 6e-6),
     # ... also in the frozen round (from the 4th iteration), judged under the law
     (1e-4, FROZEN, None, 1e-6, 5, 6e-6),
@@ -88,7 +94,7 @@ FROZEN = [(0.5, 5e-5), (0.5, 3e-5), (0.5, 2e-5)] + HALVING
 ])
 def test_a_tight_newton_solve_settles_at_the_floor_once_a_step_is_cut(
         start, script, law, tolerance, iterations, residual):
-    """NewtonSolve accepts an iterate within RESIDUAL_FLOOR times its tolerances as soon
+    """NewtonSolve accepts an iterate within the residual floor times its tolerances as soon
     as the line search has cut a step, in a solve tighter than the path's, judged under the
     contact law itself; otherwise it goes on to its tolerances."""
     report = ScriptedNewton(start, script, tolerance, law).run()
@@ -108,7 +114,7 @@ def test_a_tight_newton_solve_settles_at_the_floor_once_a_step_is_cut(
 def test_a_tight_newton_solve_whose_forces_are_converged_settles_at_the_floor(
         tolerance, increment, iterations):
     """In a solve tighter than the path's, NewtonSolve accepts an iterate whose
-    residuals meet their tolerance with an increment up to RESIDUAL_FLOOR times its own: full
+    residuals meet their tolerance with an increment up to the residual floor times its own: full
     Newton steps whose increments do not shrink while the residual falls run along a direction
     the forces hardly constrain (G1 at F* = 0.155 on 256^2: 7.5e-4 h at 3.6e-8 F_n, 15
     iterations and a cut). Otherwise it goes on to its tolerances."""
@@ -142,13 +148,14 @@ def test_a_line_search_takes_the_full_step_where_the_energy_is_quadratic():
 @pytest.mark.parametrize("kink, stiff", [(0.3, 1e3), (0.05, 1e5), (0.9, 50.0)])
 def test_a_line_search_stops_near_the_least_energy_past_a_contact_kink(kink, stiff):
     """A node that touches the flat part-way along the step (the penalty ~1e3 times stiffer
-    than the solid): the step ends where |s| <= LINE_SEARCH_SLACK |s(0)|, just past the kink,
+    than the solid): the step ends where |s| <= line_search_slack |s(0)|, just past the kink,
     within the trial budget, and the iterate is left there (the last call)."""
     calls = []
     slope = kinked_slope(kink, 0.5, stiff, calls)
     step = newton_module.line_search_step(slope, -1.0)
-    assert abs(slope(step)) <= newton_module.LINE_SEARCH_SLACK
-    assert calls[-2] == step and len(calls) - 1 <= 1 + newton_module.LINE_SEARCH_TRIALS
+    assert abs(slope(step)) <= newton_module.DEFAULT_OPTIONS.line_search_slack
+    trials = newton_module.DEFAULT_OPTIONS.line_search_trials
+    assert calls[-2] == step and len(calls) - 1 <= 1 + trials
     halved = 1.0  # what halving while the merit s^2 grows would have taken
     while kinked_slope(kink, 0.5, stiff, [])(halved) ** 2 >= 1.0 and halved > 1 / 32:
         halved /= 2
@@ -160,4 +167,17 @@ def test_a_line_search_bisects_where_the_residual_is_not_finite():
     def slope(step):
         return np.inf if step > 0.6 else -1.0 + 2.0 * step
     step = newton_module.line_search_step(slope, -1.0)
-    assert abs(slope(step)) <= newton_module.LINE_SEARCH_SLACK
+    assert abs(slope(step)) <= newton_module.DEFAULT_OPTIONS.line_search_slack
+
+
+def test_a_load_step_is_made_of_named_choices_and_refuses_meaningless_ones():
+    """LoadStep's choices are enums (a bare flag is refused) and a frictionless step has no
+    slide; the choices read back as the predicates the solver uses."""
+    with pytest.raises(TypeError):
+        LoadStep(1.0, 0.0, True)
+    with pytest.raises(ValueError):
+        LoadStep(1.0, 1e-9)
+    step = LoadStep(1.0, 1e-9, Friction.EXACT, Control.HEIGHT, newton_module.Finish.PATH)
+    assert (step.frictional, step.predictor, step.exact_tangent, step.hold_height,
+            step.marks_path) == (True, False, True, True, True)
+    assert not LoadStep(1.0).frictional and LoadStep(1.0, 0.0, Friction.PREDICTED).predictor

@@ -188,3 +188,33 @@ def test_hanging_nodes_follow_the_coarse_faces_bilinearly(block):
         np.testing.assert_allclose(u[node], expected, rtol=1e-12)
         checked += 1
     assert MPI.COMM_WORLD.allreduce(checked) > 0
+
+
+def test_a_new_material_law_is_a_new_class(block):
+    """The solid return-maps through its law (``solver.plasticity.MaterialLaw``): a law that
+    yields nowhere (s = 2 G dev eps, beta = 1, gamma = 0), written as its own class, gives the
+    residual of the elastic J2 solid, and J2 under the same strain yields where it does not."""
+    from roughfriction.solver.plasticity import J2Response, J2State
+
+    material = Material()
+
+    class Hookean:
+        def return_map(self, strain_deviator, committed):
+            m = len(strain_deviator)
+            return J2Response(2.0 * material.shear_modulus * strain_deviator,
+                              J2State.virgin(m), np.ones(m), np.zeros(m),
+                              np.zeros((m, 3, 3)), np.zeros(m, bool))
+
+    residuals = []
+    for solid in (Solid(block.mesh, material, law=Hookean()),
+                  Solid(block.mesh, material, elastic=True), Solid(block.mesh, material)):
+        x = solid.V.tabulate_dof_coordinates()
+        u = solid.displacement.x.array.reshape(-1, 3)
+        u[:, 0] = 4.0 * material.Sy / material.shear_modulus * block.depth * (
+            x[:, 2] / block.depth)**2
+        solid.update_stress()
+        residuals.append(assemble(solid)[0].array.copy())
+    assert solid.yielding.any()  # the J2 solid, last: it yields under this strain
+    np.testing.assert_allclose(residuals[0], residuals[1], rtol=0,
+                               atol=1e-12 * np.abs(residuals[1]).max())
+    assert np.abs(residuals[2] - residuals[1]).max() > 1e-3 * np.abs(residuals[1]).max()

@@ -60,7 +60,7 @@ def test_the_preload_is_solved_to_the_end_only_where_the_run_ends_there(monkeypa
 
     def spied(self, step):
         report = solve(self, step)
-        if not step.friction:
+        if not step.frictional:
             calls.append((step.marks_path,
                           self.flat.penetration(report.contact) / self.spacing))
         return report

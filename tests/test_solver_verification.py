@@ -110,7 +110,7 @@ def fem_complete_contact_pressure(fem_run, amplitude) -> float:
     mode = sinusoid(n, 1.0)
     assert np.all(fem_run.maps["contact_normal"])
     flat = fem_run.equilibrium.flat
-    settlement = flat.gather_nodes(top_settlement(fem_run)).reshape(n, n)
+    settlement = flat.surface.gather_nodes(top_settlement(fem_run)).reshape(n, n)
     pressure = fem_run.maps["pressure_normal"]
     pressure_amplitude = np.sum(pressure * mode) / np.sum(mode**2)
     deflection_amplitude = np.sum(settlement * mode) / np.sum(mode**2)
@@ -267,7 +267,7 @@ def test_newton_accepts_a_residual_floor_near_inception():
     """G5 on 16 x 16 at F* = 0.62 with p_r = 0.05 S_y: near inception Newton stagnated at
     1.03-1.2e-6 F_n, just above the 1e-6 F_n tolerance, and the run ended with 205 of 209
     nodes slipping once the slide increment could not be cut further. A floor within
-    RESIDUAL_FLOOR times the tolerance is accepted, and the run reaches inception."""
+    the residual floor times the tolerance is accepted, and the run reaches inception."""
     assert_at_inception(g5_16_alone(0.62, 0.05), 100)
 
 

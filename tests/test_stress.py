@@ -128,7 +128,7 @@ class ScriptedEquilibrium:
         from roughfriction.solver.newton import NewtonReport
 
         self.calls += 1
-        if step.friction:
+        if step.frictional:
             self.predictors.append(step.predictor)
             self.marks_path.append(step.marks_path)
             self.exact_tangent.append(step.exact_tangent)
