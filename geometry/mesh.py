@@ -68,25 +68,10 @@ class Boundary(IntEnum):
 COARSE_LAYERS_PER_LEVEL = 2
 
 
-@dataclass(frozen=True, eq=False)
-class Block:
-    """The meshed block and its grid indexing.
+class LaidOut:
+    """The grid and layering a block reads from its ``layout``
+    (``geometry.adaptive.AdaptiveLayout``): shared by :class:`Block` and :class:`BlockNodes`."""
 
-    Attributes
-    ----------
-    mesh : dolfinx.mesh.Mesh
-        Hexahedral mesh [m], surface nodes already on the height map.
-    grid_index : numpy.ndarray
-        (i, j, k) of every local geometry node, shape (num_nodes, 3): x = i h, y = j h
-        (0 <= i, j <= n, h the finest spacing) and node layer k (0 at the bottom,
-        ``num_layers`` at the surface).
-    layout : geometry.adaptive.AdaptiveLayout
-        The block's layout: cell sizes of every layer and flat z of the node layers (built on
-        this module's layering, so held here untyped, as the dolfinx mesh is).
-    """
-
-    mesh: object
-    grid_index: np.ndarray
     layout: object
 
     @property
@@ -114,6 +99,28 @@ class Block:
         """Smallest lateral size of the cells of each cell layer [finest spacings] (1 at full
         resolution, 2, 4, ... in coarsened levels), bottom to top, shape (num_layers,)."""
         return self.layout.cells.layer_stride
+
+
+@dataclass(frozen=True, eq=False)
+class Block(LaidOut):
+    """The meshed block and its grid indexing.
+
+    Attributes
+    ----------
+    mesh : dolfinx.mesh.Mesh
+        Hexahedral mesh [m], surface nodes already on the height map.
+    grid_index : numpy.ndarray
+        (i, j, k) of every local geometry node, shape (num_nodes, 3): x = i h, y = j h
+        (0 <= i, j <= n, h the finest spacing) and node layer k (0 at the bottom,
+        ``num_layers`` at the surface).
+    layout : geometry.adaptive.AdaptiveLayout
+        The block's layout: cell sizes of every layer and flat z of the node layers (built on
+        this module's layering, so held here untyped, as the dolfinx mesh is).
+    """
+
+    mesh: object
+    grid_index: np.ndarray
+    layout: object
 
     @property
     def period(self) -> float:
@@ -230,7 +237,7 @@ SIDE_FACES = {Boundary.CONTACT: (4, 5, 6, 7), Boundary.BOTTOM: (0, 3, 2, 1),
 
 
 @dataclass(frozen=True, eq=False)
-class BlockNodes:
+class BlockNodes(LaidOut):
     """The whole block on one process, its nodes on the height map (before distribution).
 
     Attributes
@@ -252,26 +259,6 @@ class BlockNodes:
     grid: np.ndarray
     coordinates: np.ndarray
     hexahedra: np.ndarray
-
-    @property
-    def n(self) -> int:
-        """Surface cells per side of the finest grid [-]."""
-        return self.layout.grid_size
-
-    @property
-    def spacing(self) -> float:
-        """Finest grid spacing h [m]."""
-        return self.layout.fine_spacing
-
-    @property
-    def layer_z(self) -> np.ndarray:
-        """As in :class:`Block`."""
-        return self.layout.layer_z
-
-    @property
-    def layer_stride(self) -> np.ndarray:
-        """As in :class:`Block`."""
-        return self.layout.cells.layer_stride
 
 
 def boundary_quadrangles(nodes: BlockNodes) -> dict[Boundary, np.ndarray]:

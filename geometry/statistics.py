@@ -242,8 +242,8 @@ def _rms(values: np.ndarray) -> float:
 def periodic_seam_ratio(heights) -> float:
     """RMS height jump across the periodic seam over the RMS step between neighbours inside.
 
-    The FEM closes a surface periodically (``geometry.surface.periodic_closure``): its last
-    row and column become neighbours of its first. The ratio is about 1 for a periodic or
+    The FEM closes a surface periodically (``solver.periodic``): its last row and column
+    become neighbours of its first. The ratio is about 1 for a periodic or
     i.i.d. surface and large where the closure adds a step the surface does not have.
 
     Parameters

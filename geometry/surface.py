@@ -197,25 +197,6 @@ def crop_square(heights) -> np.ndarray:
     return z[start_x : start_x + side, start_y : start_y + side].copy()
 
 
-def periodic_closure(heights) -> np.ndarray:
-    """Append the first row and column, so that the grid closes on itself periodically.
-
-    The paper's FEM surface: 128 x 128 heights become 129 x 129 nodes with z(i, n+1) = z(i, 1)
-    and z(n+1, j) = z(1, j).
-
-    Parameters
-    ----------
-    heights : array_like
-        Heights [m], shape (n, m).
-
-    Returns
-    -------
-    numpy.ndarray
-        Heights [m], shape (n + 1, m + 1).
-    """
-    return np.pad(_as_grid(heights), ((0, 1), (0, 1)), mode="wrap")
-
-
 def resample(surface: Surface, n: int) -> Surface:
     """Re-grid a surface to n x n points over the same scan length.
 

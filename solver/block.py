@@ -21,7 +21,6 @@ from roughfriction.geometry.mesh import (
     MIN_JACOBIAN_RATIO,
     Block,
     BlockNodes,
-    Boundary,
     add_block_to_gmsh,
     blend_layers_needed,
     corner_jacobians,
@@ -140,36 +139,6 @@ def slab_partitioner(comm, parts: int, graph, ghosting: bool):
     counts = np.bincount(pairs[:, 0], minlength=local)
     return AdjacencyList_int32(pairs[:, 1].astype(np.int32),
                                np.concatenate([[0], np.cumsum(counts)]).astype(np.int32))
-
-
-def boundary_facet_tags(block: Block):
-    """Tag the block's boundary facets with :class:`Boundary` values, by the grid index of their
-    vertices (a facet is on a side when all its vertices are).
-
-    The mesh's facets are computed here, not when the block is built: the solver needs none,
-    and dolfinx 0.5 takes minutes computing them on 2 ranks for a coarsened block at N = 64.
-
-    Returns
-    -------
-    dolfinx.mesh.MeshTags
-    """
-    from dolfinx import mesh as dolfinx_mesh
-    from dolfinx.cpp.mesh import entities_to_geometry
-
-    mesh = block.mesh
-    mesh.topology.create_entities(2)
-    mesh.topology.create_connectivity(2, 3)
-    facets = dolfinx_mesh.exterior_facet_indices(mesh.topology)
-    facet_nodes = entities_to_geometry(mesh._mesh, 2, facets, False)
-    i, j, k = (block.grid_index[facet_nodes][..., axis] for axis in range(3))
-    sides = {Boundary.CONTACT: k == block.num_layers, Boundary.BOTTOM: k == 0,
-             Boundary.X0: i == 0, Boundary.XL: i == block.n,
-             Boundary.Y0: j == 0, Boundary.YL: j == block.n}
-    values = np.zeros(len(facets), dtype=np.int32)
-    for side, on_side in sides.items():
-        values[on_side.all(axis=1)] = int(side)
-    tagged = values > 0
-    return dolfinx_mesh.meshtags(mesh, 2, facets[tagged].astype(np.int32), values[tagged])
 
 
 def check_jacobians(block: Block, heights: np.ndarray, blend_layers: int,

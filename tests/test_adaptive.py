@@ -364,10 +364,11 @@ def uniaxial_strain_error():
     import ufl
     from dolfinx import fem
     from dolfinx.fem import petsc as fem_petsc
+    from facets import boundary_facet_tags
     from mpi4py import MPI
     from petsc4py import PETSc
     from roughfriction.geometry.mesh import Boundary
-    from roughfriction.solver.block import boundary_facet_tags, build_block
+    from roughfriction.solver.block import build_block
     from roughfriction.solver.memory import block_size
     from roughfriction.solver.periodic import PeriodicReduction
 

@@ -4,6 +4,7 @@ tags, Jacobian checks, and the ``fem --msh`` file."""
 import dolfinx  # noqa: E402, F401  (an install without the FEM fails here)
 import numpy as np
 import pytest
+from facets import boundary_facet_tags  # noqa: E402
 from mpi4py import MPI  # noqa: E402
 from roughfriction.errors import InputError  # noqa: E402
 from roughfriction.geometry.mesh import (  # noqa: E402
@@ -12,7 +13,6 @@ from roughfriction.geometry.mesh import (  # noqa: E402
     boundary_quadrangles,
 )
 from roughfriction.solver.block import (  # noqa: E402
-    boundary_facet_tags,
     build_block,
     slab_mesh,
     slab_partitioner,

@@ -10,7 +10,6 @@ from roughfriction.geometry.surface import (
     crop_square,
     detrend_plane,
     fill_missing,
-    periodic_closure,
     resample,
     spectral_interpolate,
     validate_grid_points,
@@ -130,19 +129,6 @@ def test_crop_square_is_centred():
     assert cropped.shape == (5, 5)
     np.testing.assert_array_equal(cropped, z[:, 1:6])
     np.testing.assert_array_equal(crop_square(z.T), z.T[1:6, :])
-
-
-def test_periodic_closure_appends_first_row_and_column():
-    z = rough((128, 128))
-    closed = periodic_closure(z)
-    assert closed.shape == (129, 129)
-    np.testing.assert_array_equal(closed[:128, :128], z)
-    np.testing.assert_array_equal(closed[128, :128], z[0])
-    np.testing.assert_array_equal(closed[:128, 128], z[:, 0])
-    assert closed[128, 128] == z[0, 0]
-
-
-# --- resample -----------------------------------------------------------------------------------
 
 
 def test_resample_keeps_a_linear_ramp_exact_over_the_same_scan_length():
