@@ -92,16 +92,19 @@ def level_rows(surface: str, window: int, n: int, level: int, loads, runs, wall_
 
 
 def run_set(path: Path, comm, windows=SET_WINDOWS, n: int = SET_N, loads=SET_LOADS,
-            levels=SET_LEVELS) -> None:
+            levels=SET_LEVELS, level_case=None) -> None:
     """Run every window's levels not yet in ``path`` with today's physics, appending as each
-    finishes; progress on stderr (rank 0)."""
+    finishes; progress on stderr (rank 0). ``level_case(case, level)``: the case of a level
+    (default the uniform ladder's, ``studies.refinement.level_case``)."""
     from roughfriction.case import FemCase, Loading
     from roughfriction.geometry.generate import builtin_surface
     from roughfriction.solver.run import run_loads
     from roughfriction.studies.paper import surface_window
-    from roughfriction.studies.refinement import level_case
+    from roughfriction.studies.refinement import level_case as uniform_level_case
 
     from benchmarks.stamps import code_physics
+
+    level_case = level_case or uniform_level_case
 
     physics = code_physics(Path(path).parent)
     stamp = physics.today

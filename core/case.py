@@ -18,6 +18,8 @@ if TYPE_CHECKING:  # the case holds a surface; the core does not import the geom
 
 LINEAR_SOLVERS = ("auto", "direct", "iterative")
 INTEGRATIONS = ("selective", "full")
+#: Resolutions of a refined level's blend zone below its fine layers (MeshOptions.blend_zone).
+BLEND_ZONES = ("fine", "coarse")
 
 #: Largest dimensionless normal load F* = F_n / (A_n S_y) accepted [-]: a mean nominal pressure
 #: of 100 S_y. A plastic surface is in complete contact by the hardness (about 2.8 S_y), and the
@@ -112,6 +114,10 @@ class MeshOptions:
         ``fine_layers`` layers of the finest grid (h / 2^L thick), and the layers follow
         ``geometry.adaptive.adaptive_layers``. None: no refinement, level 0 (the surface's own
         grid everywhere; ``geometry.adaptive.block_layout`` is where None becomes that layout).
+    blend_zone : {"fine", "coarse"}
+        Resolution of a refined level's blend zone below its ``fine_layers``: "fine", the
+        finest grid through the blend depth; "coarse", the previous level's (cells twice as
+        wide and thick, ``geometry.adaptive.coarse_blend_zone``). Level 0 has no previous one.
     """
 
     blend_layers: int = 2
@@ -120,6 +126,7 @@ class MeshOptions:
     growth: float = 1.4
     depth: float = 1.0
     refinement: ZoneRefinement | None = None
+    blend_zone: str = "fine"
 
     def __post_init__(self):
         for name in ("blend_layers", "fine_layers"):
@@ -134,6 +141,9 @@ class MeshOptions:
             raise InputError(f"layer growth ratio must lie in [1, 3], got {self.growth}")
         if not (math.isfinite(self.depth) and self.depth > 0):
             raise InputError(f"block depth must be > 0 periods, got {self.depth}")
+        if self.blend_zone not in BLEND_ZONES:
+            raise InputError(f"blend_zone must be one of {', '.join(BLEND_ZONES)}, got "
+                             f"{self.blend_zone!r}")
         if self.refinement is not None and not isinstance(self.refinement, ZoneRefinement):
             raise InputError(f"mesh refinement must be a ZoneRefinement, got "
                              f"{type(self.refinement).__name__}")
@@ -142,6 +152,8 @@ class MeshOptions:
         """The options as plain values (the refinement's zone by its digest)."""
         values = {name: getattr(self, name) for name in
                   ("blend_layers", "fine_layers", "coarsen", "growth", "depth")}
+        if self.blend_zone != BLEND_ZONES[0]:  # the default keeps the keys of earlier runs
+            values["blend_zone"] = self.blend_zone
         if self.refinement is not None:
             values["refinement"] = self.refinement.inputs()
         return values

@@ -15,7 +15,10 @@ and is the layering of the uniformly refined block (``studies.refinement.refined
 own grid's ``geometry.mesh.layer_layout`` on the finest grid, with the blend zone, where the
 roughness fades linearly, ``blend_layers h`` deep in metres at every level
 (:func:`refined_layering`). So ``max(fine_layers, 2^L blend_layers)`` layers h / 2^L thick run
-from the surface through the blend zone, then the 2:1 coarsened levels follow. The zone refined
+from the surface through the blend zone, then the 2:1 coarsened levels follow; with
+``MeshOptions.blend_zone = "coarse"`` the blend zone below the fine layers has the previous
+level's cells (:func:`coarse_blend_zone`), so it is still refined 2x per level, one level
+behind the surface. The zone refined
 everywhere is therefore the uniform ladder's level-L block; a partial zone keeps its cells in
 those layers and its own-grid cells elsewhere (aspect ratio 2^L : 1 in the fine layers: flat
 trilinear cells stiffen bending there, where the field is smooth on the scale h). Why global
@@ -248,7 +251,41 @@ def adaptive_layers(n: int, spacing: float, level: int, options: MeshOptions
         Smallest lateral cell size of each cell layer [finest spacings], bottom to top.
     """
     factor = 1 << level
-    return layer_layout(n * factor, spacing / factor, refined_layering(options, factor))
+    layering = refined_layering(options, factor)
+    layer_z, layer_stride = layer_layout(n * factor, spacing / factor, layering)
+    if options.blend_zone == "coarse" and level > 0:
+        return coarse_blend_zone(layer_z, layer_stride, layering)
+    return layer_z, layer_stride
+
+
+def coarse_blend_zone(layer_z: np.ndarray, layer_stride: np.ndarray, options: MeshOptions
+                      ) -> tuple[np.ndarray, np.ndarray]:
+    """The layering with its blend zone below the top ``fine_layers`` at the previous level's
+    resolution: those thin (stride 1) blend layers merged in pairs into layers twice as thick,
+    of stride 2 (an odd one left, the one under the fine layers); the layers below unchanged.
+
+    The merged layers' node layers lie on the original ones, so the blend depth stays a node
+    layer and the blend map stays trilinear in every cell; the fine layers keep the finest
+    grid, the 2:1 interface below them hangs exactly (``hanging_masters``).
+
+    Parameters
+    ----------
+    layer_z, layer_stride : numpy.ndarray
+        A layering of :func:`geometry.mesh.layer_layout` (node z [m] and cell-layer strides
+        [finest spacings], bottom to top) whose top ``options.blend_layers`` cell layers are
+        the thin stride-1 blend zone.
+    options : MeshOptions
+        Its layering (``fine_layers``, ``blend_layers`` counted in those thin layers).
+    """
+    thin = max(options.fine_layers, options.blend_layers)
+    pairs = (thin - options.fine_layers) // 2
+    if pairs == 0:
+        return layer_z, layer_stride
+    first = len(layer_stride) - thin  # the lowest thin cell layer (node layer below it)
+    merged = np.arange(first + 1, first + 2 * pairs, 2)  # node layers inside the pairs
+    strides = np.concatenate([layer_stride[:first], np.full(pairs, 2 * layer_stride[first]),
+                              layer_stride[first + 2 * pairs:]])
+    return np.delete(layer_z, merged), strides
 
 
 def adaptive_layout(n: int, spacing: float, level: int, zone: np.ndarray,

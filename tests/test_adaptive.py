@@ -10,6 +10,7 @@ from roughfriction.errors import InputError
 from roughfriction.geometry.adaptive import (
     CellSizes,
     adaptive_block,
+    adaptive_layers,
     adaptive_layout,
     balanced_levels,
     block_layout,
@@ -212,9 +213,11 @@ def trilinear(points, coefficients):
     return terms @ coefficients
 
 
+@pytest.mark.parametrize("blend_zone", ["fine", "coarse"])
 @pytest.mark.parametrize("seed", [0, 1, 2])
-def test_the_masters_of_every_node_reproduce_trilinear_fields(seed):
-    layout = adaptive_layout(6, SPACING, 2, patches(6, seed=seed), MeshOptions(blend_layers=3))
+def test_the_masters_of_every_node_reproduce_trilinear_fields(seed, blend_zone):
+    layout = adaptive_layout(6, SPACING, 2, patches(6, seed=seed),
+                             MeshOptions(blend_layers=3, blend_zone=blend_zone))
     grid, _ = adaptive_block(layout.cells)
     masters, weights = hanging_masters(grid, layout.cells)
     hanging = weights[:, 0] < 1.0
@@ -280,22 +283,25 @@ def jacobian_ratio(layout, heights):
     return (corner_jacobians(moved, cell_nodes) / corner_jacobians(flat, cell_nodes)).min(axis=1)
 
 
+@pytest.mark.parametrize("blend_zone", ["fine", "coarse"])
 @pytest.mark.parametrize("level", [0, 1, 2])
-def test_cell_jacobians_stay_positive_on_a_rough_surface(level):
+def test_cell_jacobians_stay_positive_on_a_rough_surface(level, blend_zone):
     n = 8
     heights = rough(n, 1.0 * SPACING, seed=4)  # valleys a few grid spacings deep
     needed = blend_layers_needed(heights, SPACING)
     assert needed > 2
     zone = patches(n, seed=4)
-    layout = adaptive_layout(n, SPACING, level, zone, MeshOptions(blend_layers=needed))
+    options = MeshOptions(blend_layers=needed, blend_zone=blend_zone)
+    layout = adaptive_layout(n, SPACING, level, zone, options)
     assert jacobian_ratio(layout, heights).min() >= MIN_JACOBIAN_RATIO
     # the check can fail: half the blend depth inverts cells
-    thin = adaptive_layout(n, SPACING, level, zone, MeshOptions(blend_layers=needed // 3))
+    thin = adaptive_layout(n, SPACING, level, zone, replace(options, blend_layers=needed // 3))
     assert jacobian_ratio(thin, heights).min() <= 0.0
 
 
-def test_the_blend_zone_has_the_same_depth_in_metres_at_every_level():
-    n, options = 8, MeshOptions(blend_layers=3, fine_layers=2)
+@pytest.mark.parametrize("blend_zone", ["fine", "coarse"])
+def test_the_blend_zone_has_the_same_depth_in_metres_at_every_level(blend_zone):
+    n, options = 8, MeshOptions(blend_layers=3, fine_layers=2, blend_zone=blend_zone)
     heights = rough(n, 0.3 * SPACING, seed=5)
     zone = patches(n, seed=5)
     for level in range(4):
@@ -312,6 +318,39 @@ def test_the_blend_zone_has_the_same_depth_in_metres_at_every_level():
         i, j = grid[~deep][own, 0] // 2**level % n, grid[~deep][own, 1] // 2**level % n
         expected = (1 + flat[~deep][own] / layout.blend_depth) * (heights - heights.mean())[i, j]
         np.testing.assert_allclose((z - flat)[~deep][own], expected, rtol=1e-12, atol=1e-20)
+
+
+@pytest.mark.parametrize("level", [1, 2, 3])
+@pytest.mark.parametrize("options", [MeshOptions(), MeshOptions(blend_layers=3),
+                                     MeshOptions(blend_layers=3, fine_layers=1),
+                                     MeshOptions(fine_layers=5)])
+def test_the_coarse_blend_zone_has_the_previous_level_s_cells_below_the_fine_layers(level,
+                                                                                  options):
+    """The coarse blend zone keeps the fine layers (an odd thin layer under them where the
+    blend zone's thin layers do not pair up), merges the other thin blend layers in pairs
+    into layers of stride 2 on the fine zone's own node layers, and leaves the layers below
+    the blend depth as they are; level 0 is unchanged."""
+    fine_z, fine_stride = adaptive_layers(8, SPACING, level, options)
+    z, stride = adaptive_layers(8, SPACING, level, replace(options, blend_zone="coarse"))
+    thin = max(options.fine_layers, 2**level * options.blend_layers)
+    pairs = (thin - options.fine_layers) // 2
+    assert len(stride) == len(fine_stride) - pairs and len(z) == len(stride) + 1
+    assert set(np.round(z / SPACING, 9)) <= set(np.round(fine_z / SPACING, 9))
+    blend = len(fine_stride) - thin  # cell layers below the blend zone, bottom up
+    np.testing.assert_array_equal(stride[:blend], fine_stride[:blend])
+    np.testing.assert_array_equal(z[:blend + 1], fine_z[:blend + 1])
+    kept_thin = thin - 2 * pairs
+    np.testing.assert_array_equal(stride[blend:], [2] * pairs + [1] * kept_thin)
+    np.testing.assert_allclose(np.diff(z[blend:]), [2**(1 - level) * SPACING] * pairs
+                               + [2**-level * SPACING] * kept_thin, rtol=1e-9)
+    unrefined = adaptive_layers(8, SPACING, 0, replace(options, blend_zone="coarse"))
+    for coarse, plain in zip(unrefined, adaptive_layers(8, SPACING, 0, options), strict=True):
+        np.testing.assert_array_equal(coarse, plain)
+
+
+def test_a_blend_zone_other_than_fine_or_coarse_is_refused():
+    with pytest.raises(InputError, match="blend_zone must be one of fine, coarse"):
+        MeshOptions(blend_zone="medium")
 
 
 def test_every_level_meshes_the_same_bilinear_surface():

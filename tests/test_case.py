@@ -62,7 +62,10 @@ def test_a_zone_refinement_enters_the_case_inputs_by_its_digest():
     # unrefined: the keys of before (cache keys of earlier runs stay valid)
     unrefined = asdict(MeshOptions())
     assert unrefined.pop("refinement") is None
+    assert unrefined.pop("blend_zone") == "fine"  # the default blend zone adds no key either
     assert case.inputs()["mesh"] == unrefined
+    coarse = replace(case, mesh=MeshOptions(blend_zone="coarse"))
+    assert coarse.inputs()["mesh"] == {**unrefined, "blend_zone": "coarse"}
     zone = np.zeros((4, 4), bool)
     zone[1, 2] = True
     refined = [replace(case, mesh=MeshOptions(refinement=ZoneRefinement(2, mask)))

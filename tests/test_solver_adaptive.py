@@ -92,6 +92,30 @@ def test_the_all_zone_run_reproduces_the_uniformly_refined_run():
     assert adaptive.mu_s == pytest.approx(regridded.mu_s, rel=1e-10, abs=0)
 
 
+#: Largest relative change of mu_s the coarse blend zone may make on the gentle surface [-]
+#: (its fine layers resolve the contact; the blend zone below carries a smooth field).
+COARSE_BLEND_AGREEMENT = 1e-3
+
+
+@pytest.mark.fem
+def test_the_coarse_blend_zone_gives_the_fine_zone_s_mu_s_with_fewer_dofs():
+    """The all-zone level 1 with the blend zone below the fine layers at the own grid's cells:
+    fewer than half the dofs (block_size counts them), mu_s within 0.1 % of the fine zone's."""
+    from roughfriction.solver.memory import block_size
+
+    case = replace(gentle_case(n=6), mesh=MeshOptions(blend_layers=4))
+    fine = all_zone(case)
+    coarse = replace(fine, mesh=replace(fine.mesh, blend_zone="coarse"))
+    results = [run(level, MPI.COMM_SELF, progress=lambda record: None).result
+               for level in (fine, coarse)]
+    assert all(result.converged for result in results)
+    dofs = [result.sizes["reduced_dofs"] for result in results]
+    assert dofs[1] == block_size(block_layout(6, SPACING, coarse.mesh))[1]
+    assert dofs[1] < 0.5 * dofs[0]
+    assert results[1].mu_s == pytest.approx(results[0].mu_s, rel=COARSE_BLEND_AGREEMENT)
+    assert results[1].mu_s != results[0].mu_s  # a different mesh
+
+
 @pytest.mark.mpi
 @pytest.mark.fem
 def test_the_all_zone_run_reproduces_the_uniformly_refined_run_across_ranks():

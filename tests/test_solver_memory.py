@@ -19,10 +19,12 @@ from test_adaptive import reduced_dofs  # noqa: E402
 pytestmark = pytest.mark.fem
 
 LAYERINGS = [MeshOptions(), MeshOptions(blend_layers=3, fine_layers=1),
-             MeshOptions(coarsen=False, growth=2.0), MeshOptions(fine_layers=5)]
+             MeshOptions(coarsen=False, growth=2.0), MeshOptions(fine_layers=5),
+             MeshOptions(blend_zone="coarse"),
+             MeshOptions(blend_layers=3, fine_layers=1, blend_zone="coarse")]
 
 
-@pytest.mark.parametrize("seed", range(12))
+@pytest.mark.parametrize("seed", range(18))
 def test_the_block_size_counted_from_the_layout_is_the_built_block_s(seed):
     """Cells and reduced dofs of random layouts (own grids 4 to 12, levels 0 to 3, zones from
     none to all), counted without the block, equal those of the block built."""
