@@ -18,7 +18,7 @@ DEBIAN_PACKAGES := python3-dolfinx-real python3-petsc4py-real python3-mpi4py pyt
 	python3-h5py python3-scipy python3-matplotlib python3-venv libopenblas0-serial
 
 .PHONY: setup test lint figures gallery bench bench-multiscale bench-fem bench-windows bench-path \
-	bench-error bench-error-quick bench-profile bench-calibration stress clean
+	bench-error bench-error-quick bench-profile bench-calibration bench-blend-zone stress clean
 
 # --- set-up -----------------------------------------------------------------------------
 $(VENV)/.apt-done:
@@ -176,6 +176,15 @@ bench-calibration: setup
 	@$(MPIRUN) $(PY) -m benchmarks.calibration_set docs/bench/calibration_ladders.csv \
 	  $(CALIBRATION_LEVELS)
 	@$(PY) -m benchmarks.calibration docs/bench/calibration_ladders.csv docs/bench/calibration.csv
+
+# The coarse blend zone against the fine one (benchmarks/blend_zone.py): the calibration set's
+# windows and loads on all-zone 2x and 4x levels whose blend zone below the fine layers has
+# the previous level's cells -> docs/bench/blend_zone.csv (resumable, stamped); the uniform
+# levels of docs/bench/calibration_ladders.csv are the fine zone's.
+BLEND_LEVELS ?= 1,2
+bench-blend-zone: setup
+	@mkdir -p docs/bench
+	@$(MPIRUN) $(PY) -m benchmarks.blend_zone docs/bench/blend_zone.csv $(BLEND_LEVELS)
 
 bench: bench-multiscale bench-fem bench-windows bench-path bench-error
 

@@ -384,6 +384,34 @@ def calibration_ladders_table(bench: Path) -> str:
                            "dofs of the finest"], table)
 
 
+def blend_zone_table(bench: Path) -> str:
+    """`make bench-blend-zone`: mu_s of the coarse blend zone's 2x and 4x levels
+    (blend_zone.csv, ``benchmarks.blend_zone``) beside the uniform ones, whose blend zone is
+    fine (calibration_ladders.csv), a row per window and load run; dofs per level."""
+    uniform = {(row["surface"], row["window"], row["load_star"], row["level"]): row
+               for row in read_rows(bench / "calibration_ladders.csv")}
+    cases: dict[tuple, dict] = {}
+    for row in read_rows(bench / "blend_zone.csv"):
+        cases.setdefault((row["surface"], row["window"], row["n"], row["load_star"]),
+                         {})[row["level"]] = row
+    table = []
+    for (surface, window, n, load), levels in cases.items():
+        cells = [f"{surface} window {window}, {n}²", load]
+        for level in ("1", "2"):
+            coarse, fine = levels.get(level), uniform.get((surface, window, load, level))
+            if coarse is None or fine is None or not (coarse["mu_s"] and fine["mu_s"]):
+                cells += ["–", "–"]
+                continue
+            mu_coarse, mu_fine = float(coarse["mu_s"]), float(fine["mu_s"])
+            cells += [f"{mu_fine:.4f} / {mu_coarse:.4f}",
+                      f"{100 * (mu_coarse - mu_fine) / mu_fine:+.2f} % "
+                      f"({grouped_thousands(int(fine['reduced_dofs']))} / "
+                      f"{grouped_thousands(int(coarse['reduced_dofs']))} dofs)"]
+        table.append(cells)
+    return markdown_table(["window", "F*", "2x μ_s fine / coarse", "2x change (dofs)",
+                           "4x μ_s fine / coarse", "4x change (dofs)"], table)
+
+
 #: Zone margins [coarse cells] the coverage table shows.
 TABLE_MARGINS = ("0", "1")
 
@@ -463,6 +491,7 @@ TABLES: dict[str, DocTable] = {
     "figure_scenes.csv": DocTable(scenes_table, None),
     "calibration.csv": DocTable(calibration_table, "calibration_ladders.csv"),
     "calibration_ladders.csv": DocTable(calibration_ladders_table, "calibration_ladders.csv"),
+    "blend_zone.csv": DocTable(blend_zone_table, "blend_zone.csv"),
     "memory.csv": DocTable(memory_table, "memory.csv"),
     "zone_cover.csv": DocTable(zone_cover_table, "zone_cover.csv"),
     "profile_*.json": DocTable(profile_table, "profile_*.json"),
