@@ -1,22 +1,24 @@
 """Where an FEM run's time goes: wall time per phase of the Newton loop and the Krylov
-iterations of every linear solve, measured by wrapping the solver's methods during one run.
+iterations of every linear solve, read from the stages the solver runs its work in
+(:mod:`solver.stages`) during one run.
 
 Phases (seconds summed over the run on each rank; the summary gives the largest rank's):
 
-* residual assembly, ``Equilibrium.assemble`` (once per Newton iterate and line-search trial),
-  of which the stress update (return map, ``Solid.update_stress``) and the contact law
+* residual assembly, ``ReducedSystem.assemble`` (once per Newton iterate and line-search
+  trial), of which the stress update (return map, ``Solid.update_stress``) and the contact law
   (``RigidFlat.respond``);
-* reduced tangent, ``Equilibrium.assemble_tangent`` (P^T K P and the contact blocks);
+* reduced tangent, ``ReducedSystem.assemble_tangent`` (P^T K P and the contact blocks);
 * linear solves, ``LinearSolver.solve``: the two solves of the bordered Newton system,
-  K x1 = -R ("x1") and the warm-started K x2 = -b ("x2"), by Krylov method (cg, gmres).
+  K x1 = -R ("x1") and the warm-started K x2 = -b ("x2"), by Krylov method (cg, gmres), from
+  the solver's record of its solves (``LinearSolver.krylov_solves``).
 
-The solver's code is not changed: the wrappers are installed on the classes for the duration of
-:func:`measured` and removed after it.
+The seconds and calls of a phase are the change of its stage's dolfinx timer over the run; the
+memory after each set-up stage is noted by a listener of the stages' ends
+(``solver.stages.listening``). The solver's code is not wrapped or replaced.
 """
 
 from __future__ import annotations
 
-import importlib
 import time
 from collections import defaultdict
 from contextlib import contextmanager
@@ -26,6 +28,7 @@ from pathlib import Path
 import numpy as np
 from mpi4py import MPI
 from petsc4py import PETSc
+from roughfriction.solver import stages
 
 
 @dataclass
@@ -51,7 +54,7 @@ class Profile:
         ``wall`` [-] and the calls; per kind of linear solve the number of solves, their Krylov
         iterations and the largest [-]. Collective."""
         phases = {}
-        for phase, *_ in PHASES:
+        for phase, _ in PHASES:
             seconds = comm.allreduce(self.seconds.get(phase, 0.0), op=MPI.MAX)
             phases[phase.strip()] = {"seconds": seconds, "share": seconds / wall,
                                      "calls": self.calls.get(phase, 0)}
@@ -60,62 +63,37 @@ class Profile:
                   for kind, its in sorted(self.krylov.items())}
         return {"wall_s": wall, "phases": phases, "linear_solves": solves}
 
-
-def _record_krylov(profile: Profile, solver, rhs, solution, warm_start=False, *_, **__):
-    """Note the Krylov iterations of a finished ``LinearSolver.solve``: "x2" for the
-    warm-started solve of the bordered system, else "x1", and the Krylov method."""
-    kind = "x2" if warm_start else "x1"
-    profile.krylov[f"{kind} {solver.ksp.getType()}"].append(solver.last_iterations)
-
-
-def _timed(profile: Profile, phase: str, method, after=None):
-    """``method`` timed into ``profile``, then, if it returned, ``after(profile, *args,
-    **kwargs)`` (re-entrant calls, e.g. a solve retried from inside itself, counted once)."""
-    depth = [0]
-
-    def wrapper(*args, **kwargs):
-        depth[0] += 1
-        start = time.perf_counter()
-        try:
-            result = method(*args, **kwargs)
-        finally:
-            depth[0] -= 1
-            if depth[0] == 0:
-                profile.seconds[phase] += time.perf_counter() - start
-                profile.calls[phase] += 1
-        if depth[0] == 0 and after is not None:
-            after(profile, *args, **kwargs)
-        return result
-
-    return wrapper
+    def note_krylov(self, solves) -> None:
+        """Add the Krylov iterations of finished linear solves
+        (:class:`solver.linear.KrylovSolve`): "x2" for the warm-started solve of the bordered
+        system, else "x1", and the Krylov method."""
+        for solve in solves:
+            kind = "x2" if solve.warm_start else "x1"
+            self.krylov[f"{kind} {solve.krylov}"].append(solve.iterations)
 
 
-#: (phase, module, class, method, what to note after a call) of the timed methods; a phase
-#: nested in another is indented.
+#: (phase, the solver's stage it times) of the profile; a phase nested in another is indented.
 PHASES = (
-    ("residual assembly", "roughfriction.solver.equilibrium", "Equilibrium", "assemble", None),
-    ("  stress update", "roughfriction.solver.solid", "Solid", "update_stress", None),
-    ("  contact law", "roughfriction.solver.contact", "RigidFlat", "respond", None),
-    ("reduced tangent", "roughfriction.solver.equilibrium", "Equilibrium", "assemble_tangent",
-     None),
-    ("linear solves", "roughfriction.solver.linear", "LinearSolver", "solve", _record_krylov),
+    ("residual assembly", stages.RESIDUAL),
+    ("  stress update", stages.STRESS_UPDATE),
+    ("  contact law", stages.CONTACT_LAW),
+    ("reduced tangent", stages.TANGENT),
+    ("linear solves", stages.LINEAR_SOLVE),
 )
 
 
 @contextmanager
 def measured(profile: Profile):
-    """Time the :data:`PHASES` into ``profile`` while the block runs."""
-    originals = []
+    """Add the seconds and calls of the :data:`PHASES` while the block runs to ``profile``:
+    the change of their stages' dolfinx timers."""
+    before = {name: stages.stage_timing(name) for _, name in PHASES}
     try:
-        for phase, module, name, method, after in PHASES:
-            owner = getattr(importlib.import_module(module), name)
-            original = owner.__dict__[method]
-            originals.append((owner, method, original))
-            setattr(owner, method, _timed(profile, phase, original, after))
         yield profile
     finally:
-        for owner, method, original in reversed(originals):
-            setattr(owner, method, original)
+        for phase, name in PHASES:
+            calls, seconds = stages.stage_timing(name)
+            profile.calls[phase] += calls - before[name][0]
+            profile.seconds[phase] += seconds - before[name][1]
 
 
 def profile_run(case, comm, progress=None) -> tuple:
@@ -126,9 +104,11 @@ def profile_run(case, comm, progress=None) -> tuple:
 
     profile, marks = Profile(), MemoryMarks()
     start = time.perf_counter()
-    with measured(profile), memory_marked(marks):
+    with measured(profile), stages.listening(marks.note):
         fem = run(case, comm, progress=progress)
-    summary = profile.summary(comm, time.perf_counter() - start)
+    wall = time.perf_counter() - start
+    profile.note_krylov(fem.equilibrium.linear_solver.krylov_solves)
+    summary = profile.summary(comm, wall)
     surface_nodes = fem.equilibrium.flat.grid_size ** 2
     summary["memory"] = memory_summary(comm, marks, memory_objects(fem.equilibrium),
                                        fem.result.sizes["reduced_dofs"], surface_nodes)
@@ -230,63 +210,40 @@ MATRICES = (
 )
 
 
+#: (phase, the solver's stage after whose first end memory is noted), in run order.
+MARKS = (
+    ("mesh", stages.MESH),
+    ("forms and spaces", stages.SOLID_SETUP),
+    ("reduction P", stages.REDUCTION),
+    ("system set-up", stages.SYSTEM_SETUP),
+    ("reduced elastic K", stages.ELASTIC_TANGENT),
+    ("first tangent", stages.TANGENT),
+    ("preconditioner and first solve", stages.KRYLOV_SOLVE),
+)
+
+
 @dataclass
 class MemoryMarks:
-    """Resident memory of this rank after the first call of each phase of :data:`MARKS`.
+    """Resident memory of this rank after the first end of each stage of :data:`MARKS`.
 
     Attributes
     ----------
     marks : dict
-        Phase -> (VmRSS, VmHWM) [kB] just after its first call ended.
+        Phase -> (VmRSS, VmHWM) [kB] just after its stage first ended.
     """
 
     marks: dict = field(default_factory=dict)
 
-    def note(self, phase: str) -> None:
-        """Record the resident and peak memory after ``phase`` if it is its first call."""
-        if phase not in self.marks:
+    def note(self, stage: str) -> None:
+        """Record the resident and peak memory after ``stage`` (a listener of
+        :func:`solver.stages.listening`) if it is a marked stage's first end."""
+        phase = _MARKED.get(stage)
+        if phase is not None and phase not in self.marks:
             self.marks[phase] = (_status_kb("VmRSS"), _status_kb("VmHWM"))
 
 
-#: (phase, module, class or None, function) after whose first call memory is noted, in run
-#: order.
-MARKS = (
-    ("mesh", "roughfriction.solver.run", None, "build_block"),
-    ("forms and spaces", "roughfriction.solver.solid", "Solid", "__init__"),
-    ("reduction P", "roughfriction.solver.periodic", "PeriodicReduction", "__init__"),
-    ("system set-up", "roughfriction.solver.reduced_system", "ReducedSystem", "__init__"),
-    ("reduced elastic K", "roughfriction.solver.reduced_system", "ReducedSystem",
-     "_create_tangent"),
-    ("first tangent", "roughfriction.solver.reduced_system", "ReducedSystem",
-     "assemble_tangent"),
-    ("preconditioner and first solve", "roughfriction.solver.linear", "LinearSolver", "_apply"),
-)
-
-
-def _noting(marks: MemoryMarks, phase: str, function):
-    """``function``, noting memory into ``marks`` after it returns."""
-    def wrapper(*args, **kwargs):
-        result = function(*args, **kwargs)
-        marks.note(phase)
-        return result
-    return wrapper
-
-
-@contextmanager
-def memory_marked(marks: MemoryMarks):
-    """Note memory after the first call of each of the :data:`MARKS` while the block runs."""
-    originals = []
-    try:
-        for phase, module, name, function in MARKS:
-            owner = importlib.import_module(module)
-            owner = getattr(owner, name) if name else owner
-            original = owner.__dict__[function]
-            originals.append((owner, function, original))
-            setattr(owner, function, _noting(marks, phase, original))
-        yield marks
-    finally:
-        for owner, function, original in reversed(originals):
-            setattr(owner, function, original)
+#: Stage -> its phase in :data:`MARKS`.
+_MARKED = {name: phase for phase, name in MARKS}
 
 
 def memory_summary(comm, marks: MemoryMarks, objects: dict, reduced_dofs: int,

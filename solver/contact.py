@@ -70,6 +70,7 @@ from roughfriction.solver.contact_state import (
     Tangent,
     Trial,
 )
+from roughfriction.solver.stages import CONTACT_LAW, stage
 from scipy import sparse
 
 __all__ = ["FRICTIONLESS", "ContactHistory", "ContactResponse", "RigidFlat", "Tangent", "Trial"]
@@ -132,6 +133,7 @@ class RigidFlat(ContactMeasures):
 
     # --- the contact law ------------------------------------------------------------------------
 
+    @stage(CONTACT_LAW)
     def respond(self, displacement: np.ndarray, flat_height: float, flat_slide: float,
                 trial: Trial = FRICTIONLESS) -> ContactResponse:
         """Contact state of all nodes and integration points for a trial displacement and flat

@@ -11,7 +11,7 @@ import numpy as np
 from mpi4py import MPI
 
 if TYPE_CHECKING:
-    from roughfriction.solver.contact import ContactResponse
+    from roughfriction.solver.contact_state import ContactResponse
 
 
 class ContactMeasures:

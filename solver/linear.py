@@ -37,13 +37,24 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
+from typing import NamedTuple
 
 from mpi4py import MPI
 from petsc4py import PETSc
+from roughfriction.solver.stages import KRYLOV_SOLVE, LINEAR_SOLVE, stage
 
 
 class LinearSolveError(RuntimeError):
     """The Krylov solver diverged or hit its iteration limit (the Newton step is cut)."""
+
+
+class KrylovSolve(NamedTuple):
+    """One finished :meth:`LinearSolver.solve`: whether it was warm-started, the Krylov method
+    it ended with ("cg", "gmres") and its Krylov iterations [-]."""
+
+    warm_start: bool
+    krylov: str
+    iterations: int
 
 
 #: CG failures that GMRES, which needs neither a definite operator nor preconditioner, may cure.
@@ -133,6 +144,7 @@ class LinearSolver:
         self.ksp.setNormType(PETSc.KSP.NormType.UNPRECONDITIONED)
         self._precondition_as_configured()
         self.last_iterations = 0
+        self.krylov_solves: list[KrylovSolve] = []  # every finished solve, in order
         self.rebuilds = 0
         self.fell_back = ""  # why GAMG or Cholesky last gave way to LU factors, if they did
         self.fallbacks = 0  # how many times they did
@@ -184,10 +196,19 @@ class LinearSolver:
             if krylov == "gmres":
                 self.ksp.setFromOptions()  # the prefix's GMRES options (__init__)
 
+    @stage(LINEAR_SOLVE)
     def solve(self, rhs: PETSc.Vec, solution: PETSc.Vec, warm_start: bool = False,
               relative_tolerance: float | None = None) -> int:
         """Solve into ``solution`` (starting from its content if ``warm_start``, else from 0) to
-        ``relative_tolerance`` (default: the solver's); return the Krylov iterations."""
+        ``relative_tolerance`` (default: the solver's); return the Krylov iterations, also
+        noted in :attr:`krylov_solves`."""
+        iterations = self._solve(rhs, solution, warm_start, relative_tolerance)
+        self.krylov_solves.append(KrylovSolve(warm_start, self.ksp.getType(), iterations))
+        return iterations
+
+    def _solve(self, rhs: PETSc.Vec, solution: PETSc.Vec, warm_start: bool,
+               relative_tolerance: float | None) -> int:
+        """:meth:`solve`, retried with a fresh preconditioner, GMRES or LU factors."""
         fresh = self._rebuild
         self.ksp.setTolerances(rtol=relative_tolerance or self.relative_tolerance)
         self.ksp.setInitialGuessNonzero(warm_start)
@@ -218,7 +239,7 @@ class LinearSolver:
             self._preconditioning = operator.handle
             self.ksp.setOperators(operator, operator)
             self._precondition_with_factors()
-            return self.solve(rhs, solution, relative_tolerance=relative_tolerance)
+            return self._solve(rhs, solution, False, relative_tolerance)
         self.last_iterations = max(self.ksp.getIterationNumber(), 1)
         if fresh:
             self._fresh_iterations = self.last_iterations
@@ -260,6 +281,7 @@ class LinearSolver:
         if self._summed is not None:
             self._summed.destroy()
 
+    @stage(KRYLOV_SOLVE)
     def _apply(self, rhs: PETSc.Vec, solution: PETSc.Vec, fresh: bool) -> None:
         """One KSP solve, rebuilding the preconditioner if ``fresh`` (LU factors within
         :func:`factor_memory_mb`)."""

@@ -19,6 +19,7 @@ from mpi4py import MPI
 from petsc4py import PETSc
 from roughfriction.geometry.adaptive import hanging_masters
 from roughfriction.geometry.mesh import Block
+from roughfriction.solver.stages import REDUCTION, stage
 
 
 def dof_node_grid_index(V, block: Block) -> np.ndarray:
@@ -66,6 +67,7 @@ class PeriodicReduction:
         Local nodes of V that hang (tied to 2 or 4 masters), bool.
     """
 
+    @stage(REDUCTION)
     def __init__(self, V, block: Block):
         comm = block.mesh.comm
         index_map = V.dofmap.index_map

@@ -24,6 +24,7 @@ from roughfriction.solver.linear import LinearSolver
 from roughfriction.solver.periodic import PeriodicReduction
 from roughfriction.solver.reduced_assembly import ReducedAssembler, add_rows, compressed_rows
 from roughfriction.solver.solid import Solid
+from roughfriction.solver.stages import ELASTIC_TANGENT, RESIDUAL, SYSTEM_SETUP, TANGENT, stage
 
 #: The tightest relative Krylov tolerance asked of a linear solve [-].
 SMALLEST_TOLERANCE = 1e-10
@@ -106,6 +107,7 @@ class ReducedSystem:
         The last tangent is symmetric; some slipping point's cap followed its pressure there.
     """
 
+    @stage(SYSTEM_SETUP)
     def __init__(self, solid: Solid, reduction: PeriodicReduction, flat: RigidFlat,
                  options: SolverOptions):
         self.solid, self.reduction, self.flat = solid, reduction, flat
@@ -148,6 +150,7 @@ class ReducedSystem:
 
     # --- assembly -------------------------------------------------------------------------
 
+    @stage(RESIDUAL)
     def assemble(self, displacement: PETSc.Vec, flat_height: float, flat_slide: float,
                  trial: Trial = FRICTIONLESS) -> ContactResponse:
         """Stress update, R, b and c at the reduced displacement u_red [m] and the flat at
@@ -179,6 +182,7 @@ class ReducedSystem:
         self.force_row.assemble()
         return contact
 
+    @stage(TANGENT)
     def assemble_tangent(self, contact: ContactResponse) -> None:
         """K = P^T K_elastic P + P^T K_plastic P plus the contact's 3 x 3 blocks of each surface
         node and its 25 neighbours, at the iterate of the last :meth:`assemble` (whose
@@ -206,6 +210,7 @@ class ReducedSystem:
         self.tangent.assemble()
         self._set_coupling(None if self.symmetric else contact.coupling_blocks)
 
+    @stage(ELASTIC_TANGENT)
     def _create_tangent(self) -> None:
         """The tangent matrix: the pattern of the solid and of the contact blocks (each owned
         surface node's rows gain the columns of its 25 neighbours), holding P^T K_elastic P."""

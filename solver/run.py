@@ -26,6 +26,7 @@ from roughfriction.solver.periodic import PeriodicReduction, dof_node_grid_index
 from roughfriction.solver.progress import LoadStarted, RunStarted
 from roughfriction.solver.results import FemResult, near_flat_nodes
 from roughfriction.solver.solid import Solid
+from roughfriction.solver.stages import MESH, stage
 from roughfriction.solver.stepping import LoadPath, Outcome
 
 
@@ -235,7 +236,8 @@ def build_model(case: FemCase, comm: MPI.Comm) -> Model:
     reduction, flat and equilibrium."""
     surface = case.surface
     check_memory(surface.n, case.mesh, comm, surface.spacing)
-    block = build_block(surface.heights, surface.spacing, case.mesh, comm)
+    with stage(MESH):
+        block = build_block(surface.heights, surface.spacing, case.mesh, comm)
     solid = Solid(block.mesh, case.material, case.solver.elastic, case.solver.integration)
     reduction = PeriodicReduction(solid.V, block)
     flat = surface_contact(solid, block, case, reduction)

@@ -32,6 +32,7 @@ from roughfriction.solver.plasticity import (
     PlasticHistory,
     von_mises,
 )
+from roughfriction.solver.stages import SOLID_SETUP, STRESS_UPDATE, stage
 
 #: Quadrature degree of the 2 x 2 x 2 Gauss rule on hexahedra (basix: degree 2 and 3 give it).
 DEVIATORIC_DEGREE = 2
@@ -77,6 +78,7 @@ class Solid:
         Gauss points on the yield surface in the last stress update, bool.
     """
 
+    @stage(SOLID_SETUP)
     def __init__(self, mesh, material: Material, elastic: bool = False,
                  integration: str = "selective", law: MaterialLaw | None = None):
         if integration not in VOLUMETRIC_DEGREE:
@@ -182,6 +184,7 @@ class Solid:
                 / self._mesh.topology.index_map(3).size_global)
         return self._yielding_fraction
 
+    @stage(STRESS_UPDATE)
     def update_stress(self) -> None:
         """Return-map the current displacement from the committed state, ``CELLS_AT_ONCE``
         cells at a time (the map is pointwise; this bounds its working memory); fill the
@@ -190,8 +193,8 @@ class Solid:
         self._return_map()
 
     def _return_map(self) -> None:
-        """:meth:`update_stress` (also of the virgin state at construction, uncounted by
-        profilers that wrap :meth:`update_stress`)."""
+        """:meth:`update_stress` (also of the virgin state at construction, outside the
+        stress-update stage)."""
         committed, num_points = self.committed, self.num_points
         yielding = np.empty(committed.num_points, dtype=bool)
         parts = [PlasticHistory.virgin(committed.num_points)]

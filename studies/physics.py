@@ -30,9 +30,10 @@ PHYSICS_MODULES = (
     "roughfriction.solver.results",
 )
 #: Modules of the solver package that do not change results (field output, progress, the
-#: memory gate).
+#: memory gate, the timed stages).
 SOLVER_OUTPUT_MODULES = ("roughfriction.solver", "roughfriction.solver.fields",
-                         "roughfriction.solver.progress", "roughfriction.solver.memory")
+                         "roughfriction.solver.progress", "roughfriction.solver.memory",
+                         "roughfriction.solver.stages")
 #: Other modules the physics modules import that do not change results (errors, file
 #: writing); any other import of a physics module must itself be one (a test checks it).
 OUTPUT_IMPORTS = ("roughfriction.errors", "roughfriction.files",

@@ -7,20 +7,22 @@ import roughfriction
 from mpi4py import MPI
 from roughfriction.case import FemCase, Loading
 from roughfriction.geometry.surface import Surface
+from roughfriction.solver import stages
 from roughfriction.solver.equilibrium import Equilibrium
 from roughfriction.solver.linear import LinearSolver
 from roughfriction.studies.physics import physics_stamp, physics_version
 
-from benchmarks.profile import PHASES, profile_run
+from benchmarks.profile import MARKS, PHASES, profile_run
 
 pytestmark = pytest.mark.fem
 
 
-def test_profile_counts_every_newton_solve_and_removes_its_wrappers():
+def test_profile_counts_every_newton_solve_and_leaves_the_solver_as_it_was():
     """A random 8 x 8 surface preloaded and slid: every Newton iteration is one tangent and a
     linear solve x1 (and x2 where the flat's height is solved for), the nested phases fit
-    inside the residual assembly, the phases fit inside the wall time, and the solver's methods
-    are the originals afterwards."""
+    inside the residual assembly, the phases fit inside the wall time, every set-up stage's
+    memory is noted in run order, and the solver's methods and stage listeners are the same
+    afterwards."""
     originals = (Equilibrium.assemble, Equilibrium.assemble_tangent, LinearSolver.solve)
     heights = np.random.default_rng(3).normal(0.0, 1e-7, (8, 8))
     case = FemCase(Surface(heights, 1e-6, "test"), Loading(0.3))
@@ -50,7 +52,13 @@ def test_profile_counts_every_newton_solve_and_removes_its_wrappers():
     top = sum(phases[name]["seconds"] for name in ("residual assembly", "reduced tangent",
                                                       "linear solves"))
     assert top <= profile["wall_s"]
+    marks = profile["memory"]["phases"]
+    assert list(marks) == [phase for phase, _ in MARKS]
+    peaks = [row["peak_gb"] for row in marks.values()]
+    assert all(row["rss_gb"] > 0.0 for row in marks.values())
+    assert peaks == sorted(peaks) and peaks[-1] <= profile["memory"]["peak_gb"]
     assert (Equilibrium.assemble, Equilibrium.assemble_tangent, LinearSolver.solve) == originals
+    assert stages._listeners == []
 
 
 def test_bench_profile_command_writes_its_json(tmp_path, monkeypatch, capsys):
