@@ -115,12 +115,19 @@ LARGE_CASES ?= G5-512:0.155
 LADDER_CASES ?= G5:0.155
 LADDER_N ?= 128
 LADDER_LEVEL ?= 1
+# Then `roughfriction fem --tol $(TOL)` on $(TOL_CASES) at N = $(TOL_N), each after one plain
+# elasticity solve of its block, its wall time counted in those -> results/bench/tolerance.csv.
+TOL ?= 0.03
+TOL_N ?= 128
+TOL_CASES ?= G5:0.155 G1:0.155 G9:0.155 2L:0.155 G5:0.93
 bench-fem: setup
 	@$(PY) -m benchmarks fem --n $(BENCH_N) --ranks $(NP) --case $(BENCH_CASES)
 	@$(PY) -m benchmarks fem --n $(LARGE_N) --ranks $(NP) --case $(LARGE_CASES)
 	@$(PY) -m benchmarks ladder --n $(LADDER_N) --ranks $(NP) --case $(LADDER_CASES) \
 	  --max-level $(LADDER_LEVEL)
-	@mkdir -p docs/bench && cp results/bench/fem.csv results/bench/ladder.csv docs/bench/
+	@$(PY) -m benchmarks tol --n $(TOL_N) --ranks $(NP) --tol $(TOL) --case $(TOL_CASES)
+	@mkdir -p docs/bench && cp results/bench/fem.csv results/bench/ladder.csv \
+	  results/bench/tolerance.csv docs/bench/
 
 # The adaptive against the uniform ladder, levels 1x-4x, on $(WINDOW_CASES)'s $(WINDOW_N)^2 windows
 # $(WINDOWS) -> results/bench/ladder_windows.csv, copied to docs/bench/ (verification.md's table

@@ -26,13 +26,14 @@ def parse_case(text: str) -> tuple[str, float]:
 
 
 def add_bench_commands(parser: argparse.ArgumentParser) -> None:
-    """The commands multiscale, fem, ladder, path, error, stress, profile and zone under
+    """The commands multiscale, fem, ladder, path, tol, error, stress, profile and zone under
     ``parser``."""
     from roughfriction.studies.paper import DEFAULT_FEM_N
 
     from benchmarks import convergence
     from benchmarks.fem import DEFAULT_SIZES as FEM_SIZES
     from benchmarks.fem import HEADLINE_CASES as FEM_CASES
+    from benchmarks.tolerance import DEFAULT_TOLERANCE, TOLERANCE_CASES
 
     headline = [f"{surface}:{load:g}" for surface, load in FEM_CASES]
     kinds = parser.add_subparsers(dest="bench_command", metavar="COMMAND", required=True)
@@ -67,7 +68,18 @@ def add_bench_commands(parser: argparse.ArgumentParser) -> None:
                             f"each run under mpirun -> {BENCH_DIR / 'path.csv'}")
     path.add_argument("--n", type=int, default=64, help="surface cells per side (default 64)")
     path.set_defaults(run=cmd_bench_path)
-    for parser, cases in ((fem, headline), (ladder, headline[:1]), (path, headline)):
+
+    tolerance = kinds.add_parser("tol", help="roughfriction fem --tol per case, its wall time "
+                                 "in plain elasticity solves of the same block timed just "
+                                 f"before it -> {BENCH_DIR / 'tolerance.csv'}")
+    tolerance.add_argument("--n", type=int, default=128,
+                           help="surface cells per side (default 128)")
+    tolerance.add_argument("--tol", type=float, default=DEFAULT_TOLERANCE,
+                           help=f"relative tolerance (default {DEFAULT_TOLERANCE:g})")
+    tolerance.set_defaults(run=cmd_bench_tolerance)
+    tolerance_cases = [f"{surface}:{load:g}" for surface, load in TOLERANCE_CASES]
+    for parser, cases in ((fem, headline), (ladder, headline[:1]), (path, headline),
+                          (tolerance, tolerance_cases)):
         parser.add_argument("--ranks", type=int, default=2, help="MPI ranks (default 2)")
         parser.add_argument("--case", nargs="+", metavar="SURFACE:LOAD", default=cases,
                             help=f"surfaces and loads F* (default {' '.join(cases)})")
@@ -137,7 +149,7 @@ def add_bench_commands(parser: argparse.ArgumentParser) -> None:
     zone.add_argument("--output", metavar="CSV", default=str(BENCH_DIR / "zone_cover.csv"),
                       help="the table (default %(default)s)")
     zone.set_defaults(run=cmd_bench_zone)
-    for parser in (multiscale, fem, ladder, path, error, matrix, profile, zone):
+    for parser in (multiscale, fem, ladder, path, tolerance, error, matrix, profile, zone):
         parser.add_argument("--json", action="store_true", help="one JSON object on stdout")
 
 
@@ -166,6 +178,15 @@ def cmd_bench_ladder(args) -> dict:
     rows = benchmark_ladders(args.n, args.ranks, args.max_level, args.ladder, cases,
                              args.window or (None,), Path(args.csv))
     return {"runs": rows, "csv": args.csv}
+
+
+def cmd_bench_tolerance(args) -> dict:
+    """``roughfriction fem --tol`` rows (:func:`benchmarks.tolerance.benchmark_tolerance`)."""
+    from benchmarks.tolerance import benchmark_tolerance
+
+    cases = [parse_case(text) for text in args.case]
+    return {"runs": benchmark_tolerance(args.n, args.ranks, args.tol, cases),
+            "csv": str(BENCH_DIR / "tolerance.csv")}
 
 
 def cmd_bench_path(args) -> dict:
