@@ -114,7 +114,7 @@ def load_sweep(t: dict, figure: str, name: str) -> list[tuple]:
     if finite.sum() >= 2:
         first, last = gap[finite][0], gap[finite][-1]
         rows.append(_row(figure, f"{name}: FEM approaches the model at high load",
-                         f"|FEM/multi-scale − 1| {first:.2f} at F* = {loads[finite][0]:g}, "
+                         f"abs(FEM/multi-scale − 1) {first:.2f} at F* = {loads[finite][0]:g}, "
                          f"{last:.2f} at {loads[finite][-1]:g}", bool(last < first)))
     return rows
 

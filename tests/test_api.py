@@ -122,6 +122,14 @@ def test_an_unconverged_run_is_written_then_raised(tmp_path):
         rf.run_fem(case, output, progress=lambda record: None)
     run = rf.read_run(output)
     assert not run.converged and run.summary["mu_s"] is None
+    # one step of the preload, written as computed; the message says where it stopped
+    assert list(run.steps["phase"]) == ["normal"] and run.summary["steps"] == 1
+    reached = run.steps["normal_force"][-1]
+    assert run.summary["Fn"] == reached
+    target = 0.155 * (8 * case.surface.spacing) ** 2 * case.material.Sy  # Eq. 10
+    assert 0 < reached < target
+    assert run.message == (f"step limit reached during preload at F_n = {reached / target:.4g}"
+                           " x target")
 
 
 # --- case files: the command's --config, through the API ------------------------------------
@@ -310,6 +318,30 @@ def test_the_examples_of_docs_api_md_run(tmp_path, monkeypatch, capsys):
     out = capsys.readouterr().out
     assert out.count("refused:") == 5
     assert (tmp_path / "g5_window.h5").is_file() and (tmp_path / "g5_tol.h5").is_file()
+    refusals = [line for line in out.splitlines() if line.startswith("refused: ")]
+    reasons = ("normal load F* = 1e+09 > 100", "heights and spacing must both be in metres",
+               "G5 has 256 windows of 8 x 8 points, not 300", "a relative error below 1",
+               "g5_window.h5 holds another case")
+    assert len(refusals) == len(reasons)
+    for line, reason in zip(refusals, reasons, strict=True):
+        assert reason in line, line
+    # the files hold what the examples returned; the ladder's 1x level is the single run
+    # computed a second time, and its error the certificate of its levels
+    single, estimated = namespace["summary"], namespace["estimated"]
+    assert rf.read_run(tmp_path / "g5_window.h5").summary == single
+    assert rf.read_run(tmp_path / "g5_tol.h5").summary == estimated
+    levels = estimated["levels"]
+    assert levels["factor"][0] == 1 and levels["mu_s"][0] == pytest.approx(single["mu_s"],
+                                                                            rel=1e-9)
+    assert estimated["mu_s"] == levels["mu_s"][-1]
+    assert estimated["mu_s_error"] == pytest.approx(certify(
+        levels["mu_s"], levels["contact_nodes"][-1], levels["boundary_nodes"][-1]).error)
+    steps = namespace["run"].steps
+    assert single["mu_s"] == pytest.approx(steps["tangential_force"][-1]
+                                           / steps["normal_force"][-1], rel=1e-12)
+    assert f"mu_s {single['mu_s']:.3f}, A_r/A_n {single['area_ratio_normal']:.3f}, " in out
+    assert (namespace["heavier"].loading.load_star, namespace["from_file"].material.Sy) == (
+        0.62, 800e6)
 
 
 @pytest.mark.mpi
@@ -328,7 +360,10 @@ def test_run_fem_on_two_ranks_writes_one_file_and_refuses_on_every_rank(tmp_path
     summary = rf.run_fem(case, output, progress=lambda record: None)
     areas = comm.allgather(summary["area_ratio_normal"])
     assert areas[0] == areas[1] == rf.read_run(output).summary["area_ratio_normal"]
-    stored = rf.read_run(output).summary  # rank 0's summary (the ranks' wall times differ)
+    written = rf.read_run(output)
+    assert written.inputs == case.inputs() and written.sizes["ranks"] == 2
+    assert written.summary["area_ratio_normal"] == written.steps["area_ratio"][-1]
+    stored = written.summary  # rank 0's summary (the ranks' wall times differ)
     assert rf.run_fem(case, output, progress=lambda record: None) == stored  # read, not run
     assert stored == summary or comm.rank != 0
     heavier = rf.fem_case(rf.load_surface("G5"), 0.3, n=8, window="best", normal_only=True)

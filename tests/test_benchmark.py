@@ -191,6 +191,19 @@ def test_a_ladder_runs_under_mpirun_and_reports_its_levels(tmp_path, monkeypatch
                           rows[1]["boundary_nodes"])
     assert rows[1]["mu_s_error"] == pytest.approx(certificate.error)
     assert rows[1]["peak_memory_gb"] > 0.0
+    # the finest row is the results file the run wrote: its mu_s, that of its last step, and
+    # its sizes; the tolerance was out of reach, and the file says so
+    from roughfriction.studies.post import read_run
+
+    (output,) = tmp_path.glob("ladder_adaptive_G5_F0.155_N4_1ranks*.h5")
+    finest = read_run(output)
+    assert rows[1]["mu_s"] == finest.summary["mu_s"] == pytest.approx(
+        finest.steps["tangential_force"][-1] / finest.steps["normal_force"][-1], rel=1e-12)
+    assert finest.summary["levels"]["mu_s"] == [row["mu_s"] for row in rows]
+    assert rows[1]["peak_memory_gb"] == finest.sizes["peak_memory_gb"]
+    assert rows[1]["reduced_dofs"] == finest.sizes["reduced_dofs"]
+    assert finest.summary["error_tolerance"] == 1e-12
+    assert finest.summary["error_tolerance_met"] is False
 
 
 #: The folders of the installed package (pyproject's package-dir), which never import the
@@ -255,7 +268,7 @@ def test_every_benchmark_command_and_option_has_help():
                     yield from parsers(sub)
 
     every = list(parsers(build_parser()))
-    assert len(every) == 9  # the front end and its eight commands
+    assert len(every) == 10  # the front end and its nine commands
     assert [parser.prog for parser in every if not (parser.description or "").strip()] == []
     assert [f"{parser.prog} {action.dest}" for parser in every for action in parser._actions
             if not isinstance(action, argparse._SubParsersAction | argparse._HelpAction)

@@ -438,11 +438,21 @@ def test_a_killed_run_leaves_no_entry_and_a_rerun_completes(tmp_path):
     assert done.returncode == 0, done.stderr
     case = FemCase(surface_on_fem_grid(builtin_surface("G5"), 8), Loading(0.155))
     path = entry_path(tmp_path, case, PHYSICS)
-    assert json.loads(done.stdout)["runs"]["file"] == [str(path)]
+    table = json.loads(done.stdout)["runs"]
+    assert table["file"] == [str(path)]
     entry = read_run(path)
     assert entry.converged and entry.summary["mu_s"] > 0
     assert entry.maps["surface_heights"].shape == (8, 8)
     assert [p.name for p in tmp_path.iterdir()] == [path.name]  # no temporary file left
+    # the entry is the case of its key, run to inception, and the command printed its numbers
+    assert entry.inputs == case.inputs()
+    np.testing.assert_array_equal(entry.maps["surface_heights"], case.surface.heights)
+    steps = entry.steps
+    assert steps["phase"][-1] == "tangential"
+    assert entry.summary["mu_s"] == pytest.approx(steps["tangential_force"][-1]
+                                                  / steps["normal_force"][-1], rel=1e-12)
+    assert table["mu_s"] == [entry.summary["mu_s"]]
+    assert table["A_r/A_n"] == [entry.summary["area_ratio_normal"]]
 
 
 @pytest.mark.mpi
@@ -460,7 +470,11 @@ def test_an_entry_computed_on_two_ranks_serves_one_rank(tmp_path, monkeypatch):
     (path,) = cached_results([case], comm, lambda line: None, directory)
     assert path == entry_path(directory, case, PHYSICS)
     if comm.rank == 0:
-        assert read_run(path).sizes["ranks"] == 2
+        entry = read_run(path)
+        assert entry.sizes["ranks"] == 2
+        assert entry.inputs == case.inputs() and entry.converged
+        assert entry.summary["Fn"] == pytest.approx(0.155 * (8e-6) ** 2 * case.material.Sy,
+                                                  rel=1e-9)  # Eq. 10
         module = types.ModuleType("roughfriction.solver.run")
         module.run_loads = lambda *args, **kwargs: pytest.fail("recomputed")
         monkeypatch.setitem(sys.modules, "roughfriction.solver.run", module)

@@ -68,6 +68,12 @@ def test_load_sweep_statements(tmp_path):
     assert found["2L: FEM approaches the model at high load"] == "yes"
     path = write_claims(tmp_path)
     assert path.read_text().startswith("| Fig. | the paper | ours | agrees |")
+    # every row has its four cells ("ours" holds no "|": a markdown table would split it)
+    rows = [line.strip().strip("|").split("|") for line in path.read_text().splitlines()[2:]]
+    assert {len(cells) for cells in rows} == {4}
+    written = [(cells[0].strip(), cells[1].strip(), cells[-1].strip()) for cells in rows]
+    assert {paper: verdict for fig, paper, verdict in written if fig == "26"} == found
+    assert len(written) == len(claims(tmp_path))  # one row per statement, figures not drawn too
 
 
 def test_stiffness_orderings(tmp_path):

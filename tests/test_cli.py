@@ -6,7 +6,9 @@ import sys
 
 import numpy as np
 import pytest
+from roughfriction.case import FemCase, Loading
 from roughfriction.geometry.generate import builtin_surface
+from roughfriction.geometry.surface import Surface, surface_on_fem_grid
 from roughfriction.material import Material
 from roughfriction.scripts.cli import EXIT_INPUT_ERROR, EXIT_INTERRUPTED, main
 
@@ -20,14 +22,33 @@ def run_json(capsys, *argv):
     return json.loads(capsys.readouterr().out)
 
 
+def assert_moments_agree(record, heights):
+    """The stats record against the paper's closed forms: R_q of ``heights`` (Eq. 21), m0 =
+    R_q^2, alpha = m0 m4 / m2^2 (Eq. 14), R = 0.375 (pi / m4)^(1/2) (Eq. 18)."""
+    assert record["rq"] == pytest.approx(np.std(heights), rel=1e-12)
+    assert record["m0"] == pytest.approx(record["rq"] ** 2, rel=1e-9)
+    assert record["alpha"] == pytest.approx(record["m0"] * record["m4"] / record["m2"] ** 2,
+                                            rel=1e-12)
+    assert record["R"] == pytest.approx(0.375 * np.sqrt(np.pi / record["m4"]), rel=1e-12)
+
+
 def test_surface_stats_json_keys_and_values(capsys):
     record = run_json(capsys, "surface", "stats", "G5")
     assert STATS_KEYS <= record.keys()
     assert record["rq"] == pytest.approx(0.1e-6, rel=0.02)  # Table 1, SI units
     assert record["psi"] == pytest.approx(13.20, rel=0.02)
+    g5 = builtin_surface("G5")
+    assert (record["n"], record["spacing"]) == (g5.n, g5.spacing) == (128, 1e-6)
+    assert_moments_agree(record, g5.heights)
 
 
 def test_multiscale_json_keys(capsys):
+    """The command's numbers are the library's, computed here step by step: the scales of G5,
+    the multi-scale model at F* = 0.155, CKE and LET at the psi of ``surface stats``."""
+    from roughfriction.multiscale.friction import static_friction
+    from roughfriction.multiscale.scales import scale_decomposition
+    from roughfriction.multiscale.statistical import cke_friction, let_friction
+
     record = run_json(capsys, "multiscale", "G5", "--load", "0.155")
     assert THEORY_KEYS <= record.keys()
     assert record["converged"] is True
@@ -36,15 +57,30 @@ def test_multiscale_json_keys(capsys):
     assert record["mu_s"] == pytest.approx(record["Ft_max"] / normal_load)
     assert record["cke_valid"] is False  # psi = 13.2 > 8
     assert record["let_valid"] is True
+    friction = static_friction(scale_decomposition(builtin_surface("G5")), 0.155, Material())
+    assert record["mu_s"] == pytest.approx(friction.mu_s, rel=1e-12)
+    assert record["Ft_max"] == pytest.approx(friction.Ft_max, rel=1e-12)
+    assert record["area_ratio_normal"] == pytest.approx(friction.area_ratio_normal, rel=1e-12)
+    assert record["area_ratio_sliding"] == pytest.approx(friction.area_ratio_sliding, rel=1e-12)
+    psi = run_json(capsys, "surface", "stats", "G5")["psi"]
+    assert record["psi"] == psi
+    assert record["mu_cke"] == pytest.approx(cke_friction(psi, 0.155).mu_s, rel=1e-12)
+    assert record["mu_let"] == pytest.approx(let_friction(psi, 0.155).mu_s, rel=1e-12)
 
 
 def test_npy_file_with_size(tmp_path, capsys):
+    """63 um over 64 points: 1 um spacing; heights in metres, their least-squares plane
+    removed (the reader's default for a file)."""
     z = np.random.default_rng(1).normal(0.0, 0.1e-6, (64, 64))
     path = tmp_path / "rough.npy"
     np.save(path, z)
     record = run_json(capsys, "surface", "stats", str(path), "--size", "63um")
     assert record["n"] == 64
     assert record["spacing"] == pytest.approx(1e-6)
+    x, y = np.indices(z.shape)
+    plane = np.column_stack([np.ones(z.size), x.ravel(), y.ravel()])
+    residual = z.ravel() - plane @ np.linalg.lstsq(plane, z.ravel(), rcond=None)[0]
+    assert_moments_agree(record, residual)
 
 
 def write_npy(tmp_path, array):
@@ -63,6 +99,15 @@ BAD_INPUTS = {
     "unknown name": lambda p: ["surface", "stats", "G10"],
     "missing file": lambda p: ["surface", "stats", str(p / "nope.npy"), "--size", "1um"],
 }
+#: What the one line of each bad input says is wrong.
+BAD_INPUT_REASONS = {
+    "nan heights": "16 missing (NaN or unmeasured) heights of 256",  # the diagonal of 16 x 16
+    "non-square": "grid 16 x 20 is not square",
+    "1-D": "holds a 1-D array of shape (16,), not a 2-D height map",
+    "zero roughness": "RMS height 0 m < 1e-10 m",
+    "unknown name": "'G10' is neither a file nor a built-in surface",
+    "missing file": "nope.npy' is neither a file nor a built-in surface",
+}
 
 
 @pytest.mark.parametrize("case", sorted(BAD_INPUTS))
@@ -71,6 +116,7 @@ def test_bad_input_is_one_line_and_nonzero(case, tmp_path, capsys):
     err = capsys.readouterr().err.strip()
     assert err.startswith("roughfriction: error:")
     assert "\n" not in err and "Traceback" not in err
+    assert BAD_INPUT_REASONS[case] in err
 
 
 @pytest.mark.parametrize("load", ["-0.1", "0", "nan"])
@@ -78,7 +124,10 @@ def test_bad_load_is_refused(load, capsys):
     with pytest.raises(SystemExit) as exit_info:
         main(["multiscale", "G5", "--load", load])
     assert exit_info.value.code != 0
-    assert "must be a finite number > 0" in capsys.readouterr().err
+    assert exit_info.value.code == EXIT_INPUT_ERROR
+    err = capsys.readouterr().err
+    assert "must be a finite number > 0" in err
+    assert f"argument --load: must be a finite number > 0, got {load} " in err
 
 
 def test_console_script_exit_code_without_traceback():
@@ -340,6 +389,9 @@ def test_runs_builds_its_cases_as_fem_does_and_says_what_fem_says(tmp_path, caps
     table = json.loads(captured.out)["runs"]
     assert table["F*"] == [0.155, 0.5] and table["N"] == [8, 8]
     assert all(isinstance(flag, bool) for flag in table["reliable"])
+    regridded = surface_on_fem_grid(builtin_surface("G5"), 8)
+    assert_rows_are_the_runs(table, [FemCase(regridded, Loading(load)) for load in (0.155, 0.5)],
+                             tmp_path / "runs")
     assert main([*common, "--window", "1", "--config", str(config)]) == 0
     captured = capsys.readouterr()
     assert "re-gridded" not in captured.err
@@ -348,6 +400,42 @@ def test_runs_builds_its_cases_as_fem_does_and_says_what_fem_says(tmp_path, caps
     assert "Sy     8e+08" in captured.out
     assert "False" in captured.out  # patches of a cell or two on 8 x 8: not resolved
     assert "warning: at F* = 0.155, 0.5: " in captured.err and "--tol 0.03" in captured.err
+    columns = list(zip(*(line.split() for line in lines[3:5]), strict=True))
+    printed = {"F*": [float(value) for value in columns[0]], "N": [int(n) for n in columns[1]],
+               "mu_s": [float(value) for value in columns[2]],
+               "A_r/A_n": [float(value) for value in columns[3]],
+               "reliable": [value == "True" for value in columns[4]],
+               "converged": [value == "True" for value in columns[5]], "file": list(columns[6])}
+    window = Surface(builtin_surface("G5").heights[:8, :8], 1e-6, "G5")
+    steel = Material(Sy=800e6)
+    assert_rows_are_the_runs(printed, [FemCase(window, Loading(load), material=steel)
+                                       for load in (0.155, 0.5)], tmp_path / "runs", digits=6)
+
+
+def assert_rows_are_the_runs(table, cases, directory, digits=None):
+    """Each row of a ``runs`` table is its case's run-cache entry: the file of that case, and
+    mu_s, A_r/A_n, reliable and converged as the file holds them (to ``digits`` significant
+    digits as printed); the file's F_n is F* (n h)^2 S_y (Eq. 10 over the periodic cell)."""
+    from roughfriction.solver.results import RELIABLE_CELLS_PER_PATCH
+    from roughfriction.studies.cache import entry_path, physics_version
+    from roughfriction.studies.post import read_run
+
+    rel = 1e-12 if digits is None else 0.6 * 10.0 ** (1 - digits)
+    assert table["file"] == [str(entry_path(directory, case, physics_version()))
+                             for case in cases]
+    for row, (case, path) in enumerate(zip(cases, table["file"], strict=True)):
+        run = read_run(path)
+        assert run.inputs == case.inputs() and run.converged
+        summary = run.summary
+        assert table["mu_s"][row] == pytest.approx(summary["mu_s"], rel=rel)
+        assert table["A_r/A_n"][row] == pytest.approx(summary["area_ratio_normal"], rel=rel)
+        assert table["reliable"][row] is summary["reliable"] is (
+            summary["cells_per_patch"] >= RELIABLE_CELLS_PER_PATCH)
+        assert table["converged"][row] is True
+        side = case.surface.n * case.surface.spacing
+        assert summary["Fn"] == pytest.approx(
+            case.loading.load_star * side**2 * case.material.Sy, rel=1e-9)
+        assert summary["mu_s"] == pytest.approx(summary["Ft_max"] / summary["Fn"], rel=1e-12)
 
 
 @pytest.mark.parametrize("command", [["fem", "G5", "--load", "0.155"],
@@ -367,3 +455,7 @@ def test_text_tables_name_their_units(capsys):
              if line.strip()}
     assert lines["rq"][1] == "m" and lines["m4"][1] == "m^-2" and lines["spacing"][1] == "m"
     assert len(lines["psi"]) == 1 and lines["Sy"][1] == "Pa"
+    record = run_json(capsys, "surface", "stats", "G5")  # the same numbers, to 6 digits
+    for key in ("rq", "m4", "psi", "spacing"):
+        assert float(lines[key][0]) == pytest.approx(record[key], rel=5e-6), key
+    assert float(lines["Sy"][0]) == Material().Sy

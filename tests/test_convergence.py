@@ -203,8 +203,15 @@ def test_tiny_benchmark_end_to_end(tmp_path, capsys):
     for row in rows:
         assert row["wall_s"] > 0 and row["peak_memory_gb"] > 0 and row["ranks"] == 1
         assert row["version"].startswith(f"roughfriction {__version__} (")
+    knob = by_label["max_slide_increment=0.5"]  # one knob changed on 1x: against 1x
+    assert knob["compared_with"] == "1x"
+    assert knob["mu_s_change"] == pytest.approx(knob["mu_s"] / by_label["1x"]["mu_s"] - 1)
+    assert by_label["1x"]["mu_s_error"] == pytest.approx(
+        by_label["1x"]["mu_s"] / by_label["2x"]["mu_s"] - 1)
     written = list(csv.DictReader((tmp_path / "out" / "error.csv").read_text().splitlines()))
     assert [row["label"] for row in written] == ["1x", "2x", "max_slide_increment=0.5"]
+    assert [float(row["mu_s"]) for row in written] == pytest.approx(
+        [by_label[row["label"]]["mu_s"] for row in written], rel=1e-9)
     assert (tmp_path / "out" / "error.png").read_bytes()[:4] == b"\x89PNG"
     assert "reference 2x" in capsys.readouterr().out
 

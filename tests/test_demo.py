@@ -51,3 +51,33 @@ def test_the_demo_runs_and_prints_the_mu_s_of_its_results_file(tmp_path):
     assert f"{run.summary['mu_s']:.{digits}f}" == fem_mu_s
     assert isinstance(run.summary["reliable"], bool)
     assert f"reliable: {run.summary['reliable']}" in done.stdout
+    # the theory's mu_s is that of the demo's surface, recomputed here from its inputs
+    demo = demo_module()
+    surface = rf.gaussian_surface(demo.RMS_HEIGHT, n=demo.POINTS_PER_SIDE, spacing=demo.SPACING,
+                                  seed=demo.SEED, name="demo")
+    theory = rf.theory(surface, demo.LOAD_STAR)
+    assert theory_mu_s == f"{theory.mu_s:.{len(theory_mu_s.partition('.')[2])}f}"
+    # the file is the demo's case, and the sliding steps printed are the file's
+    assert run.inputs == rf.fem_case(surface, demo.LOAD_STAR, n=demo.FEM_CELLS_PER_SIDE,
+                                     window="best").inputs()
+    sliding = run.steps["phase"] == "tangential"
+    printed = [line.split() for line in done.stdout.splitlines()
+               if re.fullmatch(r"\s+[-0-9.]+\s+[0-9.]+\s+[0-9.]+\s+\d+/\d+", line)]
+    assert len(printed) == sliding.sum() > 0
+    ratios = run.steps["tangential_force"][sliding] / run.steps["normal_force"][sliding]
+    assert [float(row[1]) for row in printed] == pytest.approx(ratios, abs=5e-5)
+    assert [row[3] for row in printed] == [
+        f"{slipping}/{contact}" for slipping, contact in
+        zip(run.steps["slipping_nodes"][sliding], run.steps["contact_nodes"][sliding],
+            strict=True)]
+    assert float(printed[-1][1]) == pytest.approx(run.summary["mu_s"], abs=5e-5)
+
+
+def demo_module():
+    """docs/demo.py as a module (its inputs; importing runs nothing)."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("demo", DEMO)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module

@@ -104,6 +104,82 @@ def test_every_table_reads_the_committed_bench_files(name):
     assert all(line.count("|") == lines[0].count("|") for line in lines)
 
 
+def data_rows(table: str) -> list[list[str]]:
+    """The cells of a Markdown table's rows below its header and rule."""
+    return [[cell.strip() for cell in line.strip().strip("|").split("|")]
+            for line in table.splitlines()[2:]]
+
+
+def committed_rows(name: str) -> list[dict[str, str]]:
+    """The rows of a committed bench file, read with the csv module."""
+    import csv
+
+    with open(REPOSITORY / doc_tables.BENCH_DIRECTORY / name, newline="") as stream:
+        return list(csv.DictReader(stream))
+
+
+def rendered(name: str) -> list[list[str]]:
+    return data_rows(doc_tables.TABLES[name].render(REPOSITORY / doc_tables.BENCH_DIRECTORY))
+
+
+def by_case(cells: list[list[str]]) -> dict[tuple[str, int], list[str]]:
+    """Rows of a table whose first two cells are the case label and N, by (label, N)."""
+    return {(row[0], int(row[1])): row for row in cells}
+
+
+def case_key(row: dict[str, str]) -> tuple[str, int]:
+    return f"{row['surface']}, F* = {float(row['load_star']):g}", int(row["n"])
+
+
+@pytest.mark.parametrize("name, only_n", [("fem.csv", None), ("fem.csv 128", 128)])
+def test_the_committed_fem_table_holds_the_mu_s_of_each_two_rank_row(name, only_n):
+    """One row per two-rank run of fem.csv (the large surface has its own table), its μ_s the
+    file's to the 4 decimals printed."""
+    source = [row for row in committed_rows("fem.csv") if row["ranks"] == "2"
+              and row["surface"] != doc_tables.LARGE_SURFACE
+              and only_n in (None, int(row["n"]))]
+    table = by_case(rendered(name))
+    assert sorted(table) == sorted(map(case_key, source)) and source
+    for row in source:
+        cell = table[case_key(row)][-1]
+        if row["converged"] == "True":
+            assert float(cell) == pytest.approx(float(row["mu_s"]), abs=5e-5)
+        else:
+            assert cell == "not converged"
+
+
+def test_the_committed_path_table_holds_mu_s_on_both_paths_and_their_difference():
+    source = committed_rows("path.csv")
+    table = by_case(rendered("path.csv"))
+    assert sorted(table) == sorted(map(case_key, source)) and source
+    for row in source:
+        _, _, default, finer, error, _ = table[case_key(row)]
+        assert float(default) == pytest.approx(float(row["mu_s"]), abs=5e-6)
+        assert float(finer.split()[0]) == pytest.approx(float(row["mu_s_fine_path"]), abs=5e-6)
+        percent = 100 * (float(row["mu_s"]) / float(row["mu_s_fine_path"]) - 1)  # its definition
+        assert float(error.removesuffix(" %")) == pytest.approx(percent, abs=0.006)
+
+
+def test_the_committed_count_tables_count_the_rows_of_their_files():
+    """stress.csv: runs per outcome; figures_n128.csv: runs and converged runs per mesh;
+    error.csv and figure_scenes.csv: a row per row, in order."""
+    from collections import Counter
+
+    stress = committed_rows("stress.csv")
+    assert {row[0]: int(row[1]) for row in rendered("stress.csv")} == Counter(
+        row["outcome"] for row in stress)
+    figures = committed_rows("figures_n128.csv")
+    assert {row[0]: (int(row[1]), int(row[2])) for row in rendered("figures_n128.csv")} == {
+        f"{n}²": (sum(int(row["n"]) == n for row in figures),
+                  sum(int(row["n"]) == n and row["converged"] == "True" for row in figures))
+        for n in {int(row["n"]) for row in figures}}
+    assert [row[:2] for row in rendered("error.csv")] == [
+        [row["case"], row["label"] + (" (defaults)" if row["is_default"] == "True" else "")]
+        for row in committed_rows("error.csv")]
+    assert [row[0] for row in rendered("figure_scenes.csv")] == [
+        row["figure"] for row in committed_rows("figure_scenes.csv")]
+
+
 def test_the_committed_docs_hold_the_current_tables():
     """README.md and docs/benchmarks.md match docs/bench/ (else: make docs)."""
     for document in doc_tables.DOCUMENTS:

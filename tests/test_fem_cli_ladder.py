@@ -8,6 +8,7 @@ import pytest
 from roughfriction.errors import InputError
 from roughfriction.scripts.cli import main as cli_main
 from roughfriction.scripts.fem import ladder_limits, run_labels
+from roughfriction.studies.certificate import certify
 
 pytest.importorskip("dolfinx")
 
@@ -41,6 +42,10 @@ def test_the_levels_are_contact_adaptive_by_default(tmp_path, capsys):
     assert refinement["zone_cells"] > 0
     with h5py.File(tmp_path / "run_coarse.h5") as h5:
         assert json.loads(h5.attrs["summary"])["mu_s"] == summary["mu_s_coarse"]
+    # the coarse file is level 0, and the error is the certificate of the two levels
+    assert summary["mu_s_coarse"] == levels["mu_s"][0]
+    assert summary["mu_s_error"] == pytest.approx(certify(
+        levels["mu_s"], levels["contact_nodes"][-1], levels["boundary_nodes"][-1]).error)
 
 
 @pytest.mark.fem

@@ -11,7 +11,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 from roughfriction.case import FemCase
+from roughfriction.geometry.generate import builtin_surface
 from roughfriction.material import Material
+from roughfriction.multiscale.friction import static_friction
+from roughfriction.multiscale.scales import scale_decomposition
+from roughfriction.multiscale.stacking import normal_contact
 from roughfriction.scripts.figures import (
     FEM_FIGURES,
     FIGURES,
@@ -34,12 +38,84 @@ def figure_dir(tmp_path_factory):
     return directory
 
 
+def height_map_columns(name: str) -> dict:
+    """A built-in surface's heights as the long-format columns of Figs. 3-6, from the surface
+    itself: x = i h, y = j h [m] in x-major order, z [m]."""
+    surface = builtin_surface(name)
+    i, j = np.indices((surface.n, surface.n))
+    return {"x_m": (i * surface.spacing).ravel(), "y_m": (j * surface.spacing).ravel(),
+            "z_m": surface.heights.ravel()}
+
+
+def scale_columns(ratio: bool) -> dict:
+    """Figs. 12-13 from 2L's scale decomposition: lambda_i = L / i [m] (closed form) and
+    Delta_i [m], or Delta_i / lambda_i [-]."""
+    surface = builtin_surface("2L")
+    scales = scale_decomposition(surface)
+    wavelength = surface.scan_length / np.arange(1, len(scales.amplitude) + 1)
+    if ratio:
+        return {"wavelength_m": wavelength, "amplitude_over_wavelength": scales.amplitude
+                / wavelength}
+    return {"wavelength_m": wavelength, "amplitude_m": scales.amplitude}
+
+
+def theory_2l() -> tuple:
+    """2L at F* = 0.5 (Figs. 17-19): the scale levels, the per-scale normal contact (Eqs.
+    22-23, on its own) and the multi-scale result."""
+    scales = scale_decomposition(builtin_surface("2L"))
+    normal = normal_contact(scales, 0.5, Material())
+    friction = static_friction(scales, 0.5, Material())
+    return np.arange(1, len(scales.amplitude) + 1), normal, friction
+
+
+def friction_columns(name: str) -> dict:
+    """Figs. 17-19 from the theory: areas per scale; F_t / A_s,i = mu_s F* S_y / (A_s,i / A_n)
+    (mu_s = F_t / F_n, F_n = F* A_n S_y); F_t / (A_n S_y) per load iteration."""
+    levels, normal, friction = theory_2l()
+    sliding = friction.area_ratios_sliding
+    if name == "fig17":
+        return {"scale_level": levels, "area_ratio_normal": normal.area_ratios,
+                "area_ratio_sliding": sliding}
+    if name == "fig18":
+        return {"scale_level": levels, "shear_stress_Pa": friction.shear_stresses,
+                "shear_on_sliding_area_Pa": friction.mu_s * 0.5 * Material().Sy / sliding}
+    history = np.asarray(friction.history)
+    return {"iteration": np.arange(1, len(history) + 1),
+            "Ft_star": history / (friction.normal_load / 0.5)}
+
+
+#: What each theory figure's CSV holds, computed without the figure's module.
+THEORY_COLUMNS = {
+    "fig3": lambda: height_map_columns("2L"), "fig4": lambda: height_map_columns("2L"),
+    "fig5": lambda: height_map_columns("G5"), "fig6": lambda: height_map_columns("G5"),
+    "fig12": lambda: scale_columns(ratio=False), "fig13": lambda: scale_columns(ratio=True),
+    "fig17": lambda: friction_columns("fig17"), "fig18": lambda: friction_columns("fig18"),
+    "fig19": lambda: friction_columns("fig19"),
+}
+
+
 @pytest.mark.parametrize("name", THEORY_FIGURES)
 def test_figure_writes_png_and_csv(name, figure_dir):
+    """The PNG, and the CSV holding the plotted values (10 significant digits)."""
     png = figure_dir / f"{name}.png"
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
-    assert len(read_table(figure_dir / f"{name}.csv")) >= 2
+    table = read_table(figure_dir / f"{name}.csv")
+    assert len(table) >= 2
+    expected = THEORY_COLUMNS[name]()
+    assert list(table) == list(expected)
+    for key, values in expected.items():
+        np.testing.assert_allclose(table[key], values, rtol=1e-9, atol=0, err_msg=key)
     assert not list(figure_dir.glob(".*"))  # no temporary files left behind
+
+
+def test_fig19_peak_tangential_load_is_mu_s_times_the_load(figure_dir):
+    """max_j F_t^(j) / (A_n S_y) = mu_s F* (mu_s = F_t,max / F_n, F_n = F* A_n S_y), with
+    mu_s of ``roughfriction multiscale 2L --load 0.5``."""
+    from roughfriction.multiscale.theory import evaluate_theory
+
+    mu_s = evaluate_theory(builtin_surface("2L"), 0.5, Material()).mu_s
+    assert read_table(figure_dir / "fig19.csv")["Ft_star"].max() == pytest.approx(
+        mu_s * 0.5, rel=1e-9)
 
 
 #: Least width of a figure PNG for README width on a high-density screen [px] (the old: 550).
@@ -360,6 +436,23 @@ def test_fig14_with_fem_points_end_to_end_and_cached(tmp_path, monkeypatch):
         assert np.all(np.diff(data["area_ratio"][data["load_star"] == load]) <= 0)
     fem = [data["fem_area_ratio"][data["load_star"] == load][0] for load in loads]
     assert all(0 < area <= 1 for area in fem) and np.all(np.diff(fem) >= 0)
+    # the rows: per load, the theory's area after each scale, beside that load's own FEM run
+    from roughfriction.scripts import fig14
+    from roughfriction.studies.post import read_run
+
+    assert loads == sorted(fig14.LOADS)
+    scales = scale_decomposition(builtin_surface("2L"))
+    for load in loads:
+        rows = data["load_star"] == load
+        theory = normal_contact(scales, load, Material()).area_ratios
+        np.testing.assert_allclose(data["area_ratio"][rows], theory, rtol=1e-9)
+        np.testing.assert_array_equal(data["scale_level"][rows], np.arange(1, len(theory) + 1))
+    stored = {run.load_star: run.summary["area_ratio_normal"]
+              for run in map(read_run, runs.glob("*.h5"))}
+    assert sorted(stored) == loads
+    for load in loads:
+        np.testing.assert_allclose(data["fem_area_ratio"][data["load_star"] == load],
+                                   stored[load], rtol=1e-9)
 
     module = types.ModuleType("roughfriction.solver.run")
     module.run_loads = lambda *args, **kwargs: pytest.fail("a cached run was recomputed")
@@ -368,7 +461,11 @@ def test_fig14_with_fem_points_end_to_end_and_cached(tmp_path, monkeypatch):
     started = time.perf_counter()
     make_figure("fig14", tmp_path, n=8, runs_directory=runs)
     assert time.perf_counter() - started < 10.0
-    assert (tmp_path / "fig14.png").exists()
+    assert (tmp_path / "fig14.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    again = read_table(tmp_path / "fig14.csv")  # drawn from the cache: the same table
+    assert list(again) == list(data)
+    for key in data:
+        np.testing.assert_array_equal(again[key], data[key])
 
 
 def test_mu_vs_psi_draws_points_with_unresolved_patches_hollow():

@@ -171,7 +171,11 @@ def test_each_map_summary_states_its_own_unit(run_file):
     assert map_summary("pressure_normal", run.maps["pressure_normal"]) == {
         "max_Pa": 2e9, "mean_nonzero_Pa": 2e9}
     assert set(map_summary("surface_heights", HEIGHTS)) == {"min_m", "max_m"}
-    assert set(map_summary("shear_x_sliding", -np.ones((N, N)))) == {"max_Pa", "mean_nonzero_Pa"}
+    assert map_summary("surface_heights", HEIGHTS) == {"min_m": HEIGHTS.min(),
+                                                       "max_m": HEIGHTS.max()}
+    shear = map_summary("shear_x_sliding", -np.ones((N, N)))
+    assert set(shear) == {"max_Pa", "mean_nonzero_Pa"}
+    assert shear["max_Pa"] == abs(shear["mean_nonzero_Pa"]) == 1.0  # 1 Pa against the slide
     gap = np.full((N, N), 2e-9)
     gap[0, 0], gap[1, 1] = -1e-9, np.nan  # a penetrating node; a grid point without a node
     assert map_summary("gap_sliding", gap) == {"min_m": -1e-9, "max_m": 2e-9}
@@ -191,8 +195,18 @@ def test_post_command_json_and_maps(run_file, tmp_path, capsys):
     record = json.loads(capsys.readouterr().out)
     assert record["mu_s"] == pytest.approx(0.6)
     assert record["omega_0_m"] > 0
+    assert record["omega_0_m"] == pytest.approx(np.max(HEIGHTS - HEIGHTS.mean()) - FLAT_HEIGHT,
+                                                rel=1e-12)
     assert record["junction"]["growth"] == pytest.approx(0.25)
     assert (tmp_path / "maps" / "contact_normal.csv").exists()
+    np.testing.assert_array_equal(map_values(tmp_path / "maps" / "contact_normal.csv"),
+                                  contact_map().astype(int))
+    np.testing.assert_allclose(map_values(tmp_path / "maps" / "pressure_normal.csv"),
+                               np.where(contact_map(), 2e9, 0.0), rtol=1e-9)
+    np.testing.assert_allclose(record["per_step"]["Fn_N"], [step[1] for step in STEPS],
+                               rtol=1e-12)
+    np.testing.assert_allclose(record["tangential_curve"]["Ft_over_Fn"], [0, 0.2, 0.5, 0.6])
+    assert record["Fn"] == pytest.approx(LOAD * (N * SPACING) ** 2 * CASE.material.Sy)
 
 
 def test_post_command_text(run_file, capsys):
@@ -204,6 +218,18 @@ def test_post_command_text(run_file, capsys):
     table = out.split("\nper_step\n")[1].splitlines()
     assert table[0].split()[:3] == ["phase", "Fn_N", "Ft_N"]
     assert table[5].split()[0] == "tangential"
+    for line, (phase, fn, ft, ux, nodes, patches, slipping) in zip(table[1:6], STEPS,
+                                                                     strict=True):
+        cells = line.split()
+        assert cells[0] == phase and [int(cells[k]) for k in (6, 7, 9)] == [nodes, patches,
+                                                                             slipping]
+        assert [float(cell) for cell in cells[1:5]] == pytest.approx(
+            [fn, ft, ft / fn, ux], rel=5e-6)
+    scalars = {line.split()[0]: line.split()[1:] for line in out.split("\nper_step\n")[0]
+               .splitlines() if line.strip()}
+    assert float(scalars["mu_s"][0]) == pytest.approx(0.6)
+    assert float(scalars["omega_0_m"][0]) == pytest.approx(
+        np.max(HEIGHTS - HEIGHTS.mean()) - FLAT_HEIGHT, rel=5e-6)
     (line,) = [line for line in out.splitlines() if line.split()[:1] == ["contact_normal"]]
     assert line.split()[1:] == ["nodes=6", "fraction=0.166667", "patches=2", "nodes_per_patch=3"]
 

@@ -531,8 +531,12 @@ def test_tiny_stress_matrix_end_to_end(tmp_path):
         assert outcome[key]["mu_s"] > 0 and outcome[key]["nodes_per_patch"] > 0
         assert outcome[key]["inception"] and abs(outcome[key]["force_error"]) < 1e-4
         assert (outcome[key]["outcome"] == CUT) == (outcome[key]["cut_steps"] > 0)
+        assert outcome[key]["nodes_per_patch"] == pytest.approx(
+            outcome[key]["contact_nodes"] / outcome[key]["contact_patches"])
     # penalty x10 changes mu_s by < 1 % (test_solver_verification, the same surface)
     assert outcome["R", 0.155, 10.0]["mu_s_change"] == pytest.approx(0.0, abs=0.01)
+    assert outcome["R", 0.155, 10.0]["mu_s_change"] == pytest.approx(
+        outcome["R", 0.155, 10.0]["mu_s"] / outcome["R", 0.155, 1.0]["mu_s"] - 1)
     limit = outcome["limited", 0.155, 1.0]
     assert limit["outcome"] == FAILED and "step limit" in limit["message"]
     assert limit["mu_s"] is None and limit["converged"] is False
@@ -554,6 +558,8 @@ def test_tiny_stress_matrix_end_to_end(tmp_path):
     written = list(csv.DictReader((tmp_path / "out" / "stress.csv").read_text().splitlines()))
     assert len(written) == len(runs) == 10
     assert written[4]["message"] == limit["message"]  # commas survive the CSV
+    assert [float(row["mu_s"]) if row["mu_s"] else None for row in written] == [
+        None if row["mu_s"] is None else pytest.approx(row["mu_s"], rel=1e-9) for row in rows]
     markdown = (tmp_path / "out" / "stress.md").read_text()
     assert "| R | " in markdown and "0 SILENT FAILURE" in markdown
     assert "- limited F*=0.155: failed loudly: step limit" in markdown
