@@ -4,11 +4,11 @@ preload only: the flat's approach from first touch, max(z) - h at the end of the
 from functools import partial
 
 from roughfriction.scripts.fem_views import tangential_curves
-from roughfriction.studies.paper import CURVE_LOAD, GAUSSIAN_SURFACES, fem_case
+from roughfriction.studies.paper import GAUSSIAN_SURFACES, curve_case
 
 
 def fem_cases(n):
-    return [fem_case(name, CURVE_LOAD, n) for name in GAUSSIAN_SURFACES]
+    return [curve_case(name, n) for name in GAUSSIAN_SURFACES]
 
 
 make = partial(tangential_curves, normalised=True)

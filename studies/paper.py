@@ -43,6 +43,11 @@ PATCH_LOADS = (0.06, 0.12, 0.155, 0.5, 0.93, 1.86)
 AREA_LOADS = (0.06, *PSI_SWEEP_LOADS)
 #: Load F* of Figs. 21 and 29 (F_t/F_n during the tangential loading of G1–G9).
 CURVE_LOAD = 0.155
+#: First and largest sliding increment of the runs of Figs. 21 and 29, a fraction of
+#: tau_c H / G (``SolverOptions.first_slide``, ``max_slide_increment``) [-]: uniform steps
+#: small enough to draw F_t(u_x) up to inception as a curve; the other runs keep the default
+#: adaptive steps, which reach inception in a few.
+CURVE_SLIDE_INCREMENT = 0.01
 #: Loads F* whose mu-vs-psi figure also runs other windows of each G surface, to show how much
 #: mu_s scatters between windows of one i.i.d. surface (at F* = 0.155 a run takes seconds).
 WINDOW_SCATTER_LOADS = (0.155,)
@@ -144,6 +149,16 @@ def window_cases(name: str, load: float, n: int) -> list:
 
     return [FemCase(fem_surface(name, n, window), Loading(load))
             for window in scatter_windows(name, n)]
+
+
+def curve_case(name: str, n: int):
+    """The run of built-in surface ``name`` on n x n cells drawn in Figs. 21 and 29: at
+    F* = :data:`CURVE_LOAD`, sliding in uniform steps of :data:`CURVE_SLIDE_INCREMENT`."""
+    from dataclasses import replace
+
+    case = fem_case(name, CURVE_LOAD, n)
+    return replace(case, solver=replace(case.solver, first_slide=CURVE_SLIDE_INCREMENT,
+                                        max_slide_increment=CURVE_SLIDE_INCREMENT))
 
 
 def fem_case(name: str, load: float, n: int, normal_only: bool = False):

@@ -42,3 +42,20 @@ def test_stand_ins_and_the_native_grid_are_regridded():
     assert psi(meshed) < 0.5 * psi(whole)
     np.testing.assert_array_equal(fem_surface("G5", 128).heights, builtin_surface("G5").heights)
     assert fem_case("G5", 0.155, 32).surface.spacing == whole.spacing
+
+
+def test_the_curve_runs_slide_in_uniform_small_steps_and_no_other_run_does():
+    """Figs. 21 and 29 draw runs whose sliding increments are all CURVE_SLIDE_INCREMENT; the
+    same surfaces at the same load in Fig. 22 keep the default adaptive steps."""
+    from roughfriction.case import SolverOptions
+    from roughfriction.scripts import fig21, fig22, fig29
+    from roughfriction.studies.paper import CURVE_LOAD, CURVE_SLIDE_INCREMENT
+
+    curves = fig21.fem_cases(16)
+    assert [case.inputs() for case in fig29.fem_cases(16)] == [case.inputs() for case in curves]
+    assert {(case.solver.first_slide, case.solver.max_slide_increment) for case in curves} == {
+        (CURVE_SLIDE_INCREMENT, CURVE_SLIDE_INCREMENT)}
+    assert {case.loading.load_star for case in curves} == {CURVE_LOAD}
+    defaults = SolverOptions()
+    sweep = [case for case in fig22.fem_cases(16) if case.loading.load_star == CURVE_LOAD]
+    assert sweep and all(case.solver == defaults for case in sweep)
