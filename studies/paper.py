@@ -47,7 +47,7 @@ CURVE_LOAD = 0.155
 #: tau_c H / G (``SolverOptions.first_slide``, ``max_slide_increment``) [-]: uniform steps
 #: small enough to draw F_t(u_x) up to inception as a curve; the other runs keep the default
 #: adaptive steps, which reach inception in a few.
-CURVE_SLIDE_INCREMENT = 0.01
+CURVE_SLIDE_INCREMENT = 0.006
 #: Loads F* whose mu-vs-psi figure also runs other windows of each G surface, to show how much
 #: mu_s scatters between windows of one i.i.d. surface (at F* = 0.155 a run takes seconds).
 WINDOW_SCATTER_LOADS = (0.155,)

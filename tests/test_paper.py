@@ -59,3 +59,21 @@ def test_the_curve_runs_slide_in_uniform_small_steps_and_no_other_run_does():
     defaults = SolverOptions()
     sweep = [case for case in fig22.fem_cases(16) if case.loading.load_star == CURVE_LOAD]
     assert sweep and all(case.solver == defaults for case in sweep)
+
+
+@pytest.mark.fem
+def test_a_curve_run_records_at_least_twelve_sliding_states_up_to_inception():
+    """G5's curve run on a 16^2 window reaches inception (mu_s) through 12 or more recorded
+    sliding states; the adaptive default run of the same case through fewer."""
+    from mpi4py import MPI
+    from roughfriction.solver.run import run
+    from roughfriction.studies.paper import CURVE_LOAD, curve_case
+
+    def sliding_states(case):
+        result = run(case, MPI.COMM_SELF, progress=lambda record: None).result
+        assert result.converged and result.mu_s is not None
+        return sum(record.phase == "tangential" for record in result.records)
+
+    curve, default = (sliding_states(case) for case in (curve_case("G5", 16),
+                                                        fem_case("G5", CURVE_LOAD, 16)))
+    assert curve >= 12 > default
