@@ -187,11 +187,14 @@ bench-calibration: setup
 # The coarse blend zone against the fine one (benchmarks/blend_zone.py): the calibration set's
 # windows and loads on all-zone 2x and 4x levels whose blend zone below the fine layers has
 # the previous level's cells -> docs/bench/blend_zone.csv (resumable, stamped); the uniform
-# levels of docs/bench/calibration_ladders.csv are the fine zone's.
+# levels of docs/bench/calibration_ladders.csv are the fine zone's. Then the certificate judged
+# on the coarse 2x values against the uniform references -> docs/bench/calibration_coarse.csv.
 BLEND_LEVELS ?= 1,2
 bench-blend-zone: setup
 	@mkdir -p docs/bench
 	@$(MPIRUN) $(PY) -m benchmarks.blend_zone docs/bench/blend_zone.csv $(BLEND_LEVELS)
+	@$(PY) -m benchmarks.calibration docs/bench/calibration_ladders.csv \
+	  docs/bench/calibration_coarse.csv docs/bench/blend_zone.csv
 
 bench: bench-multiscale bench-fem bench-windows bench-path bench-error
 

@@ -1,7 +1,7 @@
 """The certificate (``studies.certificate``) judged on the calibration set, and its factors fitted.
 
     python -m benchmarks.calibration docs/bench/calibration_ladders.csv \
-        [docs/bench/calibration.csv]
+        [docs/bench/calibration.csv [VARIANT_LADDERS]]
 
 The set's ladders (``benchmarks.calibration_set``: uniform levels 1x, 2x, 4x, 8x of 16^2
 windows) give per case (window and load) a reference: the finest level, mu_ref, with
@@ -71,48 +71,63 @@ class Case:
         return abs(self.mu_s - self.mu_reference)
 
 
-def read_cases(path: Path) -> list[Case]:
-    """The judged cases of a ladder table (``benchmarks.calibration_set.COLUMNS``): every
-    converged ladder's levels L <= reference - 2 (a ladder with an unconverged level is left
-    out)."""
-    with open(path, newline="") as file:
-        rows = list(csv.DictReader(file))
-    ladders: dict[tuple, list[dict]] = {}
-    for row in rows:
-        label = (row["surface"], int(row["window"]), int(row["n"]), float(row["load_star"]))
-        ladders.setdefault(label, []).append(row)
-    cases = []
-    for label, levels in ladders.items():
-        levels = sorted(levels, key=lambda row: int(row["level"]))
-        if any(row["converged"] != "True" or row["mu_s"] == "" for row in levels):
-            continue
-        mu = [float(row["mu_s"]) for row in levels]
-        for level in range(1, len(levels) - 2):
-            row = levels[level]
-            cases.append(Case(label, level, mu[level], mu[level - 1], int(row["contact_nodes"]),
-                              int(row["boundary_nodes"]), int(levels[-1]["factor"]), mu[-1],
-                              abs(mu[-1] - mu[-2]), row["physics"]))
-    return cases
-
-
-def provisional_cases(path: Path) -> list[Case]:
-    """Every converged ladder's 2x level judged against its 4x level taken as exact
-    (s_ref = 0): a first look while the 8x references run, not a calibration."""
+def ladder_levels(path: Path | None) -> dict[tuple, dict[int, dict]]:
+    """The rows of a ladder table by case (surface, window, n, F*) and level (none without a
+    table)."""
+    if path is None:
+        return {}
     with open(path, newline="") as file:
         rows = list(csv.DictReader(file))
     ladders: dict[tuple, dict[int, dict]] = {}
     for row in rows:
         label = (row["surface"], int(row["window"]), int(row["n"]), float(row["load_star"]))
         ladders.setdefault(label, {})[int(row["level"])] = row
+    return ladders
+
+
+def read_cases(path: Path, variant: Path | None = None) -> list[Case]:
+    """The judged cases of a ladder table (``benchmarks.calibration_set.COLUMNS``): every
+    converged ladder's levels L <= reference - 2 (a ladder with an unconverged level is left
+    out). With a ``variant`` table (the same columns, e.g. ``benchmarks.blend_zone``'s), the
+    levels it holds are judged instead, their values and the level below taken from it where
+    it has them; the reference stays the ladder's."""
+    variants = ladder_levels(variant)
     cases = []
-    for label, levels in ladders.items():
-        if not {0, 1, 2} <= set(levels) or any(
-                levels[k]["converged"] != "True" or levels[k]["mu_s"] == "" for k in (0, 1, 2)):
+    for label, by_level in ladder_levels(path).items():
+        levels = [by_level[level] for level in sorted(by_level)]
+        if any(row["converged"] != "True" or row["mu_s"] == "" for row in levels):
             continue
-        mu = [float(levels[k]["mu_s"]) for k in (0, 1, 2)]
-        cases.append(Case(label, 1, mu[1], mu[0], int(levels[1]["contact_nodes"]),
-                          int(levels[1]["boundary_nodes"]), 4, mu[2], 0.0,
-                          levels[1]["physics"]))
+        mu = [float(row["mu_s"]) for row in levels]
+        judged = by_level | variants.get(label, {})
+        for level in range(1, len(levels) - 2):
+            if variant is not None and level not in variants.get(label, {}):
+                continue
+            row, below = judged[level], judged[level - 1]
+            if row["converged"] != "True" or row["mu_s"] == "":
+                continue
+            cases.append(Case(label, level, float(row["mu_s"]), float(below["mu_s"]),
+                              int(row["contact_nodes"]), int(row["boundary_nodes"]),
+                              int(levels[-1]["factor"]), mu[-1], abs(mu[-1] - mu[-2]),
+                              row["physics"]))
+    return cases
+
+
+def provisional_cases(path: Path, variant: Path | None = None) -> list[Case]:
+    """Every converged ladder's 2x level (the ``variant``'s where given, :func:`read_cases`)
+    judged against its 4x level taken as exact (s_ref = 0): a first look while the 8x
+    references run, not a calibration."""
+    variants = ladder_levels(variant)
+    cases = []
+    for label, levels in ladder_levels(path).items():
+        variant_levels = variants.get(label, {})
+        if variant is not None and 1 not in variant_levels:
+            continue
+        rows = [levels.get(0), variant_levels.get(1, levels.get(1)), levels.get(2)]
+        if any(row is None or row["converged"] != "True" or row["mu_s"] == "" for row in rows):
+            continue
+        mu = [float(row["mu_s"]) for row in rows]
+        cases.append(Case(label, 1, mu[1], mu[0], int(rows[1]["contact_nodes"]),
+                          int(rows[1]["boundary_nodes"]), 4, mu[2], 0.0, rows[1]["physics"]))
     return cases
 
 
@@ -201,17 +216,19 @@ def write_table(path: Path, rows: list[dict]) -> None:
 def main(argv: list[str] | None = None) -> int:
     """Judge the set of the ladder table given first with the code's factors, write the judged
     table (second argument, default docs/bench/calibration.csv) and print the three measures,
-    the fitted factors and the leave-one-out coverage."""
+    the fitted factors and the leave-one-out coverage; a third argument judges the levels of
+    that table (:func:`read_cases`' ``variant``) instead."""
     argv = sys.argv[1:] if argv is None else argv
     ladders = Path(argv[0] if argv else "docs/bench/calibration_ladders.csv")
     output = Path(argv[1] if len(argv) > 1 else "docs/bench/calibration.csv")
-    cases = read_cases(ladders)
+    variant = Path(argv[2]) if len(argv) > 2 else None
+    cases = read_cases(ladders, variant)
     write_table(output, table_rows(cases))
     if cases:
         report(cases, "against the finest level")
     else:
         print(f"{ladders}: no case has a reference two levels finer than its 2x level yet")
-    first_look = provisional_cases(ladders)
+    first_look = provisional_cases(ladders, variant)
     if first_look:
         report(first_look, "provisional: 2x against 4x taken as exact")
     return 0

@@ -90,6 +90,25 @@ def test_a_level_is_judged_only_against_a_reference_two_levels_finer(tmp_path):
     assert g5.reference_factor == 8 and g5.actual_error == pytest.approx(0.006)
 
 
+def test_a_variant_s_levels_are_judged_against_the_ladder_s_reference(tmp_path):
+    """A variant table (the coarse blend zone's 2x level, say) replaces the judged level's
+    value and counts; the reference and its spread stay the uniform ladder's; a case the
+    variant lacks is not judged; the provisional look takes the variant's 2x too."""
+    ladders = _ladder_table(tmp_path, {("G5", 0.155): [(0.3, 10, 10), (0.21, 40, 30),
+                                                       (0.205, 160, 90), (0.204, 640, 200)],
+                                       ("G1", 0.155): [(0.5, 10, 10), (0.45, 40, 30),
+                                                       (0.44, 160, 90), (0.43, 640, 200)]})
+    variant = tmp_path / "variant.csv"
+    variant.write_text(LADDER_HEADER + "G5,3,16,0.155,1,2,0.212,True,42,31,def\n")
+    (case,) = calibration.read_cases(ladders, variant)
+    assert case.label[0] == "G5" and case.mu_s == 0.212 and case.mu_coarse == 0.3
+    assert (case.contact_nodes, case.boundary_nodes, case.physics) == (42, 31, "def")
+    assert case.mu_reference == 0.204 and case.s_reference == pytest.approx(0.001)
+    (first_look,) = calibration.provisional_cases(ladders, variant)
+    assert first_look.mu_s == 0.212 and first_look.mu_reference == 0.205
+    assert len(calibration.read_cases(ladders)) == 2  # without it, both ladders' own 2x
+
+
 def test_a_case_is_judged_by_the_three_criteria(tmp_path):
     path = _ladder_table(tmp_path, {("G5", 0.155): [(0.3, 10, 10), (0.21, 40, 30),
                                                     (0.205, 160, 90), (0.204, 640, 200)]})
