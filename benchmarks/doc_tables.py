@@ -109,6 +109,29 @@ def fem_table(bench: Path, only_n: int | None = None) -> str:
          for row in rows])
 
 
+def tolerance_table(bench: Path) -> str:
+    """`make bench-fem`: ``roughfriction fem --tol`` per case (tolerance.csv,
+    ``benchmarks.tolerance``): exit status, mu_s with its certificate, the levels, the wall
+    time and that time in plain elasticity solves of the block, the peak memory beside the
+    estimate of the finest level (``solver.memory.memory_gb`` of its grid and dofs)."""
+    from roughfriction.solver.memory import memory_gb
+
+    table = []
+    for row in read_rows(bench / "tolerance.csv"):
+        factor, dofs = int(row["finest_factor"]), int(row["finest_reduced_dofs"])
+        estimate = memory_gb(int(row["n"]) * factor, dofs, int(row["ranks"]))
+        table.append([case_label(row), f"{row['n']}², {row['ranks']} ranks",
+                      f"{float(row['tol']):g}", row["exit_status"],
+                      f"{float(row['mu_s']):.4f} ± {float(row['mu_s_error']):.4f} "
+                      f"({100 * float(row['mu_s_relative_error']):.1f} %)",
+                      f"1x–{factor}x ({grouped_thousands(dofs)} dofs)",
+                      f"{seconds(float(row['wall_s']))} = {float(row['elastic_solves']):.1f} × "
+                      f"{seconds(float(row['elastic_solve_s']))}",
+                      f"{float(row['peak_memory_gb']):.2f} GB (est. {estimate:.2f})"])
+    return markdown_table(["case", "grid", "--tol", "exit", "μ_s ± certificate", "levels",
+                           "wall time = elastic solves × one solve", "peak memory"], table)
+
+
 def large_table(bench: Path) -> str:
     """`make bench-fem`'s large surface on 2 ranks: size, wall time and its ratio to the
     :data:`TIMING_REFERENCE` row of the same file, Newton iterations over steps, peak memory
@@ -482,6 +505,7 @@ TABLES: dict[str, DocTable] = {
     "fem.csv 128": DocTable(partial(fem_table, only_n=128), "fem.csv"),
     "fem.csv ranks": DocTable(fem_ranks_table, "fem.csv"),
     "fem.csv large": DocTable(large_table, "fem.csv"),
+    "tolerance.csv": DocTable(tolerance_table, "tolerance.csv"),
     "ladder.csv": DocTable(ladder_table, "ladder.csv"),
     "ladder_windows.csv": DocTable(window_ladder_table, "ladder_windows.csv"),
     "path.csv": DocTable(path_table, "path.csv"),
