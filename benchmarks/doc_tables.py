@@ -31,6 +31,7 @@ from dataclasses import dataclass
 from functools import partial
 from pathlib import Path
 
+import numpy as np
 from roughfriction.errors import InputError
 from roughfriction.files import atomic_write
 
@@ -418,7 +419,7 @@ def blend_zone_table(bench: Path) -> str:
     for row in read_rows(bench / "blend_zone.csv"):
         cases.setdefault((row["surface"], row["window"], row["n"], row["load_star"]),
                          {})[row["level"]] = row
-    table = []
+    table, changes = [], {"1": [], "2": []}
     for (surface, window, n, load), levels in cases.items():
         cells = [f"{surface} window {window}, {n}²", load]
         for level in ("1", "2"):
@@ -427,13 +428,21 @@ def blend_zone_table(bench: Path) -> str:
                 cells += ["–", "–"]
                 continue
             mu_coarse, mu_fine = float(coarse["mu_s"]), float(fine["mu_s"])
+            changes[level].append((mu_coarse - mu_fine) / mu_fine)
             cells += [f"{mu_fine:.4f} / {mu_coarse:.4f}",
-                      f"{100 * (mu_coarse - mu_fine) / mu_fine:+.2f} % "
+                      f"{100 * changes[level][-1]:+.2f} % "
                       f"({grouped_thousands(int(fine['reduced_dofs']))} / "
                       f"{grouped_thousands(int(coarse['reduced_dofs']))} dofs)"]
         table.append(cells)
+    summary = ["**all**", "–"]
+    for level in ("1", "2"):
+        found = np.array(changes[level])
+        summary += ["–", f"median {100 * np.median(found):+.2f} %, lower in "
+                    f"{np.count_nonzero(found < -1e-4)} of {len(found)}, "
+                    f"unchanged (0.01 %) in {np.count_nonzero(abs(found) <= 1e-4)}"
+                    if len(found) else "–"]
     return markdown_table(["window", "F*", "2x μ_s fine / coarse", "2x change (dofs)",
-                           "4x μ_s fine / coarse", "4x change (dofs)"], table)
+                           "4x μ_s fine / coarse", "4x change (dofs)"], table + [summary])
 
 
 #: Zone margins [coarse cells] the coverage table shows.
