@@ -174,15 +174,22 @@ def run_ladder_levels(surface: str, load: float, n: int, ranks: int, max_level: 
     output.unlink(missing_ok=True)
     status = run_mpi(ladder_command(surface, load, n, ranks, max_level, ladder, output, window))
     where = "" if window is None else f", window {window}"
-    if status not in (0, TOLERANCE_NOT_MET) or not output.exists():
-        raise RuntimeError(f"{surface} at F* = {load:g}, N = {n}{where}, {ladder} ladder: run "
-                           f"failed (exit {status})")
-    summary, sizes, versions = read_record(output)
-    with h5py.File(output) as h5:
-        physics = str(h5.attrs["physics"])
+    summary, sizes, versions, physics = ladder_record(
+        output, status, f"{surface} at F* = {load:g}, N = {n}{where}, {ladder} ladder")
     case = {"surface": surface, "load_star": load, "n": n, "window": window, "ranks": ranks,
             "ladder": ladder}
     return ladder_rows(summary, sizes, case, versions.get("roughfriction"), physics)
+
+
+def ladder_record(output: Path, status: int, what: str) -> tuple[dict, dict, dict, str]:
+    """The summary, sizes, versions and physics of a ladder's results file written by a
+    command that exited with ``status`` (0, or 3 when a limit stopped it); ``what`` names the
+    run in the error when it failed."""
+    if status not in (0, TOLERANCE_NOT_MET) or not output.exists():
+        raise RuntimeError(f"{what}: run failed (exit {status})")
+    summary, sizes, versions = read_record(output)
+    with h5py.File(output) as h5:
+        return summary, sizes, versions, str(h5.attrs["physics"])
 
 
 def ladder_key(row: dict) -> tuple:

@@ -18,16 +18,14 @@ import sys
 import time
 from pathlib import Path
 
-import h5py
 from roughfriction.files import atomic_write
 from roughfriction.studies.physics import physics_stamp
 
 from benchmarks.batch import BENCH_DIR
 from benchmarks.fem import (
-    TOLERANCE_NOT_MET,
     case_stem,
+    ladder_record,
     mpirun_environment,
-    read_record,
     read_table,
     run_mpi,
     write_csv,
@@ -71,12 +69,8 @@ def tolerance_row(surface: str, load: float, n: int, ranks: int, tol: float) -> 
     started = time.perf_counter()
     status = run_mpi(command)
     wall_s = time.perf_counter() - started
-    if status not in (0, TOLERANCE_NOT_MET) or not output.exists():
-        raise RuntimeError(f"{surface} at F* = {load:g}, N = {n}, --tol {tol:g}: run failed "
-                           f"(exit {status})")
-    summary, sizes, versions = read_record(output)
-    with h5py.File(output) as h5:
-        physics = str(h5.attrs["physics"])
+    summary, sizes, versions, physics = ladder_record(
+        output, status, f"{surface} at F* = {load:g}, N = {n}, --tol {tol:g}")
     levels = summary["levels"]
     return {"surface": surface, "load_star": load, "n": n, "ranks": ranks, "tol": tol,
             "exit_status": status, "mu_s": summary["mu_s"],

@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 from dolfinx.common import timing
 from mpi4py import MPI
-from petsc4py import PETSc
 from roughfriction.solver import stages
 from roughfriction.solver.linear import KrylovSolve, LinearSolver
 from roughfriction.solver.stages import listening, stage, stage_timing
+from test_solver_linear import skewed_laplacian
 
 pytestmark = pytest.mark.fem
 
@@ -77,20 +77,6 @@ def test_listeners_hear_each_outermost_end_and_are_removed_after_their_block():
         pass
     assert first == second == [name, name]
     assert stage_timing(name)[0] - calls == 3
-
-
-def skewed_laplacian(size: int, skew: float = 0.9) -> PETSc.Mat:
-    """tridiag(-1 - skew, 2, -1 + skew): non-symmetric, far from its upper triangle's
-    symmetric matrix (Cholesky factors of which precondition it badly)."""
-    matrix = PETSc.Mat().createAIJ([size, size], nnz=3, comm=MPI.COMM_SELF)
-    for i in range(size):
-        matrix.setValue(i, i, 2.0)
-        if i > 0:
-            matrix.setValue(i, i - 1, -1.0 - skew)
-        if i < size - 1:
-            matrix.setValue(i, i + 1, -1.0 + skew)
-    matrix.assemble()
-    return matrix
 
 
 def test_a_linear_solve_that_falls_back_is_one_stage_and_one_record(monkeypatch):
