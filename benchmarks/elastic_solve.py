@@ -1,9 +1,9 @@
 """One plain elasticity solve of a case's block: the unit the FEM run's cost is counted in.
 
-    mpirun -n 2 python -m benchmarks.elastic_solve G5 --n 128
+    mpirun -n 2 python -m benchmarks.elastic_solve G5 --n 128 [--level 1]
 
-The block of the case at level 0 (mesh, forms and periodic reduction as a run builds them,
-with the blend layers its valleys need),
+The block of the case at level 0, or of its uniform ladder's level L (mesh, forms and periodic
+reduction as a run builds them, with the blend layers its valleys need),
 the elastic stiffness P^T K P assembled, a uniform body force, and CG preconditioned by GAMG
 (``solver.linear.LinearSolver``'s iterative method: its options and the rigid-body near null
 space) to a relative residual of 1e-8. The unit is assembly + preconditioner + solve, the
@@ -89,20 +89,25 @@ def top_displacement(solid, depth: float, comm) -> float:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Time the solve of a built-in surface re-gridded to n x n (``--n``) and print it."""
+    """Time the solve of a built-in surface re-gridded to n x n (``--n``), on its uniform
+    ladder's level ``--level``, and print it."""
     from mpi4py import MPI
     from roughfriction.solver.run import with_blend_layers_needed
     from roughfriction.studies.paper import fem_case
+    from roughfriction.studies.refinement import level_case
 
     parser = argparse.ArgumentParser(prog="python -m benchmarks.elastic_solve",
                                      description=__doc__.splitlines()[0])
     parser.add_argument("surface")
     parser.add_argument("--n", type=int, default=128)
+    parser.add_argument("--level", type=int, default=0,
+                        help="the uniform ladder's level L, a mesh 2^L times finer (default 0)")
     args = parser.parse_args(sys.argv[1:] if argv is None else argv)
     case = with_blend_layers_needed(fem_case(args.surface, 0.155, args.n), lambda record: None)
-    result = elastic_solve(case, MPI.COMM_WORLD)
+    result = elastic_solve(level_case(case, args.level), MPI.COMM_WORLD)
     if MPI.COMM_WORLD.rank == 0:
-        print(json.dumps({"surface": args.surface, "n": args.n, **result}), flush=True)
+        print(json.dumps({"surface": args.surface, "n": args.n, "level": args.level, **result}),
+              flush=True)
     return 0
 
 

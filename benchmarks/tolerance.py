@@ -3,10 +3,12 @@ solves of the same block timed in the same hour (``benchmarks.elastic_solve``).
 
     python -m benchmarks tol --n 128 --ranks 2 --tol 0.03
 
-Per case: one elastic solve of the case's 128^2 block under mpirun, then the ladder under
-mpirun (``roughfriction fem S --load F --n N --tol T``); a row with the exit status, the mu_s
-and certificate (``mu_s_error``) of the finest level run, the levels, the command's wall time
-and that time in elastic solves, the peak memory summed over the ranks. Rows go to
+Per case: the ladder under mpirun (``roughfriction fem S --load F --n N --tol T``), then one
+plain elastic solve under mpirun on the uniform mesh of the ladder's finest level (2x: the
+block of the 128^2 surface with cells twice as fine; the adaptive level meshes part of it
+coarser): a row with the exit status, the mu_s and certificate (``mu_s_error``) of the
+finest level run, the levels, the command's wall time and that time in elastic solves, the
+peak memory summed over the ranks. Rows go to
 ``results/bench/tolerance.csv`` (rewritten after each case, other cases kept).
 """
 
@@ -45,10 +47,12 @@ def mpirun(ranks: int) -> list[str]:
     return ["mpirun", "-n", str(ranks), "--oversubscribe", sys.executable]
 
 
-def elastic_solve_seconds(surface: str, n: int, ranks: int) -> float:
-    """Seconds of one plain elasticity solve of the surface's n x n block on ``ranks`` ranks
-    (``benchmarks.elastic_solve``, its own mpirun)."""
-    command = mpirun(ranks) + ["-m", "benchmarks.elastic_solve", surface, "--n", str(n)]
+def elastic_solve_seconds(surface: str, n: int, ranks: int, level: int = 0) -> float:
+    """Seconds of one plain elasticity solve of the surface's n x n block, on its uniform
+    ladder's level ``level``, on ``ranks`` ranks (``benchmarks.elastic_solve``, its own
+    mpirun)."""
+    command = mpirun(ranks) + ["-m", "benchmarks.elastic_solve", surface, "--n", str(n),
+                               "--level", str(level)]
     done = subprocess.run(command, capture_output=True, text=True, env=mpirun_environment(),
                           cwd=Path(__file__).resolve().parent.parent)
     lines = [line for line in done.stdout.splitlines() if line.startswith("{")]
@@ -59,8 +63,8 @@ def elastic_solve_seconds(surface: str, n: int, ranks: int) -> float:
 
 
 def tolerance_row(surface: str, load: float, n: int, ranks: int, tol: float) -> dict:
-    """Time an elastic solve, then run ``roughfriction fem --tol`` on the case; its row."""
-    unit_s = elastic_solve_seconds(surface, n, ranks)
+    """Run ``roughfriction fem --tol`` on the case, then time one elastic solve on the uniform
+    mesh of its finest level; its row."""
     output = BENCH_DIR / f"tol_{case_stem(surface, load, n, ranks)}.h5"
     output.unlink(missing_ok=True)
     command = mpirun(ranks) + ["-m", "roughfriction.scripts.cli", "fem", surface, "--load",
@@ -72,6 +76,7 @@ def tolerance_row(surface: str, load: float, n: int, ranks: int, tol: float) -> 
     summary, sizes, versions, physics = ladder_record(
         output, status, f"{surface} at F* = {load:g}, N = {n}, --tol {tol:g}")
     levels = summary["levels"]
+    unit_s = elastic_solve_seconds(surface, n, ranks, int(levels["factor"][-1]).bit_length() - 1)
     return {"surface": surface, "load_star": load, "n": n, "ranks": ranks, "tol": tol,
             "exit_status": status, "mu_s": summary["mu_s"],
             "mu_s_error": summary["mu_s_error"],
@@ -100,4 +105,19 @@ def benchmark_tolerance(n: int, ranks: int, tol: float = DEFAULT_TOLERANCE,
             kept + [row], Path(temporary), COLUMNS))
         rows.append(row)
         print(json.dumps(row), file=sys.stderr, flush=True)
+    return rows
+
+
+def retime_units(ranks: int, table: Path | None = None) -> list[dict]:
+    """Time the elastic-solve unit of every row of the table again (on the uniform mesh of its
+    finest level) and rewrite its ``elastic_solve_s`` and ``elastic_solves``: for rows whose
+    unit was timed another way, within the hour of their runs."""
+    table = BENCH_DIR / "tolerance.csv" if table is None else table
+    rows = read_table(table)
+    for row in rows:
+        level = int(row["finest_factor"]).bit_length() - 1
+        unit_s = elastic_solve_seconds(row["surface"], int(row["n"]), ranks, level)
+        row.update({"elastic_solve_s": unit_s, "elastic_solves": float(row["wall_s"]) / unit_s})
+        print(json.dumps(row), file=sys.stderr, flush=True)
+    atomic_write(table, lambda temporary: write_csv(rows, Path(temporary), COLUMNS))
     return rows

@@ -18,6 +18,7 @@ def test_a_flat_block_under_a_body_force_is_in_uniaxial_strain():
     from mpi4py import MPI
     from roughfriction.geometry.adaptive import block_layout
     from roughfriction.solver.memory import block_size
+    from roughfriction.studies.refinement import level_case
 
     material = Material(E=200e9, nu=0.3)
     case = FemCase(Surface(np.zeros((8, 8)), 1e-6, "flat"), Loading(0.155), material)
@@ -29,3 +30,6 @@ def test_a_flat_block_under_a_body_force_is_in_uniaxial_strain():
     assert result["reduced_dofs"] == block_size(block_layout(8, 1e-6, case.mesh))[1]
     assert 0 < result["assembly_s"] and 0 < result["solve_s"] and result["krylov_iterations"] > 0
     assert result["elastic_solve_s"] == pytest.approx(result["assembly_s"] + result["solve_s"])
+    finer = elastic_solve(level_case(case, 1), MPI.COMM_WORLD)  # the uniform 2x mesh
+    assert finer["top_displacement_m"] == pytest.approx(expected, rel=1e-6)
+    assert finer["reduced_dofs"] > 4 * result["reduced_dofs"]
