@@ -76,9 +76,6 @@ def add_bench_commands(parser: argparse.ArgumentParser) -> None:
                            help="surface cells per side (default 128)")
     tolerance.add_argument("--tol", type=float, default=DEFAULT_TOLERANCE,
                            help=f"relative tolerance (default {DEFAULT_TOLERANCE:g})")
-    tolerance.add_argument("--retime-units", action="store_true",
-                           help="only time the elastic-solve unit of the table's rows again "
-                           "(within the hour of their runs) and rewrite their ratios")
     tolerance.set_defaults(run=cmd_bench_tolerance)
     tolerance_cases = [f"{surface}:{load:g}" for surface, load in TOLERANCE_CASES]
     for parser, cases in ((fem, headline), (ladder, headline[:1]), (path, headline),
@@ -185,10 +182,8 @@ def cmd_bench_ladder(args) -> dict:
 
 def cmd_bench_tolerance(args) -> dict:
     """``roughfriction fem --tol`` rows (:func:`benchmarks.tolerance.benchmark_tolerance`)."""
-    from benchmarks.tolerance import benchmark_tolerance, retime_units
+    from benchmarks.tolerance import benchmark_tolerance
 
-    if args.retime_units:
-        return {"runs": retime_units(args.ranks), "csv": str(BENCH_DIR / "tolerance.csv")}
     cases = [parse_case(text) for text in args.case]
     return {"runs": benchmark_tolerance(args.n, args.ranks, args.tol, cases),
             "csv": str(BENCH_DIR / "tolerance.csv")}

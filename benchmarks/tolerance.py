@@ -107,17 +107,3 @@ def benchmark_tolerance(n: int, ranks: int, tol: float = DEFAULT_TOLERANCE,
         print(json.dumps(row), file=sys.stderr, flush=True)
     return rows
 
-
-def retime_units(ranks: int, table: Path | None = None) -> list[dict]:
-    """Time the elastic-solve unit of every row of the table again (on the uniform mesh of its
-    finest level) and rewrite its ``elastic_solve_s`` and ``elastic_solves``: for rows whose
-    unit was timed another way, within the hour of their runs."""
-    table = BENCH_DIR / "tolerance.csv" if table is None else table
-    rows = read_table(table)
-    for row in rows:
-        level = int(row["finest_factor"]).bit_length() - 1
-        unit_s = elastic_solve_seconds(row["surface"], int(row["n"]), ranks, level)
-        row.update({"elastic_solve_s": unit_s, "elastic_solves": float(row["wall_s"]) / unit_s})
-        print(json.dumps(row), file=sys.stderr, flush=True)
-    atomic_write(table, lambda temporary: write_csv(rows, Path(temporary), COLUMNS))
-    return rows

@@ -142,6 +142,15 @@ def skewed_laplacian(size: int, skew: float = 0.9) -> PETSc.Mat:
     matrix.assemble()
     return matrix
 
+def wavy_rhs(matrix: PETSc.Mat) -> tuple[PETSc.Vec, PETSc.Vec]:
+    """A smooth right-hand side sin(40 t) for ``matrix`` and a zero vector for the solution."""
+    rhs = matrix.createVecLeft()
+    rhs.setArray(np.sin(np.linspace(0.0, 40.0, rhs.getSize())))
+    solution = rhs.duplicate()
+    solution.set(0.0)
+    return rhs, solution
+
+
 
 def test_gmres_on_cholesky_factors_that_stalls_falls_back_to_lu(monkeypatch):
     """The direct method preconditions a non-symmetric operator with Cholesky factors of its
@@ -151,9 +160,8 @@ def test_gmres_on_cholesky_factors_that_stalls_falls_back_to_lu(monkeypatch):
     monkeypatch.setattr("roughfriction.solver.linear.MAX_KRYLOV_ITERATIONS", 3)
     size = 200
     matrix = skewed_laplacian(size)
-    rhs = matrix.createVecLeft()
-    rhs.setArray(np.sin(np.linspace(0.0, 40.0, size)))
-    solution, residual = rhs.duplicate(), rhs.duplicate()
+    rhs, solution = wavy_rhs(matrix)
+    residual = rhs.duplicate()
     solver = LinearSolver(MPI.COMM_SELF, "direct", relative_tolerance=1e-10)
     solver.set_operator(matrix, symmetric=False)
     solver.solve(rhs, solution)
@@ -176,9 +184,7 @@ def test_gamg_returns_after_a_fallback_on_a_non_symmetric_operator(monkeypatch):
     monkeypatch.setattr("roughfriction.solver.linear.MAX_KRYLOV_ITERATIONS", 1)
     size = 200
     matrix = skewed_laplacian(size)
-    rhs = matrix.createVecLeft()
-    rhs.setArray(np.sin(np.linspace(0.0, 40.0, size)))
-    solution = rhs.duplicate()
+    rhs, solution = wavy_rhs(matrix)
     solver = LinearSolver(MPI.COMM_SELF, "iterative", relative_tolerance=1e-10)
     solver.set_operator(matrix, symmetric=False)
     solver.solve(rhs, solution)
@@ -255,9 +261,7 @@ def test_a_new_preconditioning_matrix_rebuilds_and_lu_factors_the_operator():
     part's."""
     size = 200
     matrix, symmetric_part = skewed_laplacian(size), laplacian(size)
-    rhs = matrix.createVecLeft()
-    rhs.setArray(np.sin(np.linspace(0.0, 40.0, size)))
-    solution = rhs.duplicate()
+    rhs, solution = wavy_rhs(matrix)
     solver = LinearSolver(MPI.COMM_SELF, "iterative", relative_tolerance=1e-6)
     for _ in range(2):
         solver.set_operator(symmetric_part, symmetric=True)

@@ -4,14 +4,13 @@ and Krylov record of the linear solver."""
 import time
 
 import dolfinx  # noqa: F401  (an install without the FEM fails here)
-import numpy as np
 import pytest
 from dolfinx.common import timing
 from mpi4py import MPI
 from roughfriction.solver import stages
 from roughfriction.solver.linear import KrylovSolve, LinearSolver
 from roughfriction.solver.stages import listening, stage, stage_timing
-from test_solver_linear import skewed_laplacian
+from test_solver_linear import skewed_laplacian, wavy_rhs
 
 pytestmark = pytest.mark.fem
 
@@ -87,10 +86,7 @@ def test_a_linear_solve_that_falls_back_is_one_stage_and_one_record(monkeypatch)
     monkeypatch.setattr("roughfriction.solver.linear.MAX_KRYLOV_ITERATIONS", 3)
     size = 200
     matrix = skewed_laplacian(size)
-    rhs = matrix.createVecLeft()
-    rhs.setArray(np.sin(np.linspace(0.0, 40.0, size)))
-    solution = rhs.duplicate()
-    solution.set(0.0)
+    rhs, solution = wavy_rhs(matrix)
     solver = LinearSolver(MPI.COMM_SELF, "direct", relative_tolerance=1e-10)
     solver.set_operator(matrix, symmetric=False)
     solves, _ = stage_timing(stages.LINEAR_SOLVE)

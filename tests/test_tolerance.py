@@ -28,19 +28,3 @@ def test_a_case_s_row_is_its_results_file_s_and_the_table_keeps_other_cases(tmp_
     assert [(r["surface"], r["n"]) for r in rows] == [("G9", "128"), ("G5", "8")]
     assert float(rows[1]["mu_s"]) == pytest.approx(row["mu_s"], rel=1e-12)
 
-
-def test_retimed_units_rewrite_only_the_unit_and_the_ratio(tmp_path, monkeypatch):
-    """--retime-units times each row's unit on its finest level's uniform mesh again."""
-    table = tmp_path / "tolerance.csv"
-    row = {column: "" for column in tolerance.COLUMNS} | {
-        "surface": "G5", "load_star": "0.155", "n": "128", "ranks": "2", "finest_factor": "2",
-        "wall_s": "300.0", "elastic_solve_s": "4.0", "elastic_solves": "75.0", "mu_s": "0.2"}
-    tolerance.write_csv([row], table, tolerance.COLUMNS)
-    timed = []
-    monkeypatch.setattr(tolerance, "elastic_solve_seconds",
-                        lambda surface, n, ranks, level: timed.append((surface, n, level)) or 12.0)
-    tolerance.retime_units(2, table)
-    (new,) = tolerance.read_table(table)
-    assert timed == [("G5", 128, 1)]
-    assert float(new["elastic_solve_s"]) == 12.0 and float(new["elastic_solves"]) == 25.0
-    assert new["mu_s"] == "0.2" and new["wall_s"] == "300.0"
