@@ -217,6 +217,12 @@ def cmd_bench_profile(args) -> dict:
     for kind, row in profile["linear_solves"].items():
         record[f"{kind} solves / its / largest"] = (
             f"{row['solves']} / {row['krylov_iterations']} / {row['largest']}")
+    memory = profile["memory"]
+    record["peak memory [GB] / [kB per dof]"] = (
+        f"{memory['peak_gb']:.3f} / {memory['peak_kb_per_dof']:.2f}")
+    record["peak rose after (rank 0: stage call, GB)"] = "; ".join(
+        f"{rise['stage']} {rise['call']}: {rise['peak_gb']:.3f}"
+        for rise in memory["peak_rises_by_rank"][0])
     return record | {"json": str(path)}
 
 

@@ -222,24 +222,41 @@ MARKS = (
 )
 
 
+#: A rise of this rank's peak memory is noted when it exceeds the last noted peak by this
+#: share [-].
+RISE_SHARE = 0.02
+
+
 @dataclass
 class MemoryMarks:
-    """Resident memory of this rank after the first end of each stage of :data:`MARKS`.
+    """Resident memory of this rank after the first end of each stage of :data:`MARKS`, and
+    where its peak rose during the run.
 
     Attributes
     ----------
     marks : dict
         Phase -> (VmRSS, VmHWM) [kB] just after its stage first ended.
+    rises : list
+        (stage, its outermost call [-], VmHWM [kB]) at each stage end that found the peak
+        :data:`RISE_SHARE` above the last one noted: when in the run the peak grew.
     """
 
     marks: dict = field(default_factory=dict)
+    rises: list = field(default_factory=list)
+    _ends: dict = field(default_factory=lambda: defaultdict(int))
 
     def note(self, stage: str) -> None:
         """Record the resident and peak memory after ``stage`` (a listener of
-        :func:`solver.stages.listening`) if it is a marked stage's first end."""
+        :func:`solver.stages.listening`) if it is a marked stage's first end, and the peak if
+        it rose."""
+        self._ends[stage] += 1
+        peak = _status_kb("VmHWM")
         phase = _MARKED.get(stage)
         if phase is not None and phase not in self.marks:
-            self.marks[phase] = (_status_kb("VmRSS"), _status_kb("VmHWM"))
+            self.marks[phase] = (_status_kb("VmRSS"), peak)
+        last = self.rises[-1][2] if self.rises else 0
+        if peak > (1.0 + RISE_SHARE) * last:
+            self.rises.append((stage, self._ends[stage], peak))
 
 
 #: Stage -> its phase in :data:`MARKS`.
@@ -264,5 +281,8 @@ def memory_summary(comm, marks: MemoryMarks, objects: dict, reduced_dofs: int,
                         "kb_per_surface_node": total(size) / 1e3 / surface_nodes}
                  for name, size in objects.items()}
     peak = total(_status_kb("VmHWM"))
+    rises = [{"stage": stage, "call": call, "peak_gb": hwm / 2**20}
+             for stage, call, hwm in marks.rises]
     return {"peak_gb": peak / 2**20, "peak_kb_per_dof": peak * 1.024 / reduced_dofs,
-            "reduced_dofs": reduced_dofs, "phases": phases, "objects": by_object}
+            "reduced_dofs": reduced_dofs, "phases": phases, "objects": by_object,
+            "peak_rises_by_rank": comm.allgather(rises)}

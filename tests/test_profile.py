@@ -12,7 +12,7 @@ from roughfriction.solver.equilibrium import Equilibrium
 from roughfriction.solver.linear import LinearSolver
 from roughfriction.studies.physics import physics_stamp, physics_version
 
-from benchmarks.profile import MARKS, PHASES, profile_run
+from benchmarks.profile import MARKS, PHASES, RISE_SHARE, profile_run
 
 pytestmark = pytest.mark.fem
 
@@ -57,6 +57,15 @@ def test_profile_counts_every_newton_solve_and_leaves_the_solver_as_it_was():
     peaks = [row["peak_gb"] for row in marks.values()]
     assert all(row["rss_gb"] > 0.0 for row in marks.values())
     assert peaks == sorted(peaks) and peaks[-1] <= profile["memory"]["peak_gb"]
+    # the peak's rises: per rank, each past the last by RISE_SHARE, the last near the final peak
+    rises = profile["memory"]["peak_rises_by_rank"]
+    assert len(rises) == MPI.COMM_WORLD.size
+    stage_names = {name for name in vars(stages).values() if isinstance(name, str)}
+    for rank_rises in rises:
+        assert rank_rises and all(rise["stage"] in stage_names for rise in rank_rises)
+        assert all(later["peak_gb"] > (1 + RISE_SHARE) * earlier["peak_gb"]
+                   for earlier, later in zip(rank_rises, rank_rises[1:], strict=False))
+    assert sum(rank[-1]["peak_gb"] for rank in rises) <= profile["memory"]["peak_gb"] + 1e-9
     assert (Equilibrium.assemble, Equilibrium.assemble_tangent, LinearSolver.solve) == originals
     assert stages._listeners == []
 
@@ -85,6 +94,12 @@ def test_bench_profile_command_writes_its_json(tmp_path, monkeypatch, capsys):
     assert written["converged"] and written["mu_s"] == pytest.approx(record["mu_s"])
     assert record["linear solves [s]"] == pytest.approx(
         written["phases"]["linear solves"]["seconds"])
+    memory = written["memory"]
+    assert record["peak memory [GB] / [kB per dof]"] == (
+        f"{memory['peak_gb']:.3f} / {memory['peak_kb_per_dof']:.2f}")
+    last = memory["peak_rises_by_rank"][0][-1]
+    assert record["peak rose after (rank 0: stage call, GB)"].endswith(
+        f"{last['stage']} {last['call']}: {last['peak_gb']:.3f}")
 
 
 def test_bench_profile_runs_a_finer_level_of_the_case(tmp_path, monkeypatch, capsys):
