@@ -367,10 +367,16 @@ def save(output: Path | None, case: FemCase, fem_run, comm, extra: dict, request
 def unresolved_warning(summary: dict) -> str | None:
     """A one-line warning for a run whose contact patches hold fewer than
     ``RELIABLE_CELLS_PER_PATCH`` grid cells of contact area each (summary ``reliable`` false),
-    else None."""
+    else None; none for a certified result (a finite ``mu_s_error``, or
+    ``area_ratio_normal_error`` of a normal-only ladder), whose certificate states the error
+    the unresolved patches leave."""
+    import math
+
     from roughfriction.solver.results import RELIABLE_CELLS_PER_PATCH
 
-    if summary.get("reliable") is not False:
+    certificates = (summary.get(key) for key in ("mu_s_error", "area_ratio_normal_error"))
+    if summary.get("reliable") is not False or any(
+            value is not None and math.isfinite(value) for value in certificates):
         return None
     return (f"the contact patches hold {summary['cells_per_patch']:.2g} grid cells of contact "
             f"area each (< {RELIABLE_CELLS_PER_PATCH}): they are not resolved, and the area and "

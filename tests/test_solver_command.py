@@ -165,8 +165,12 @@ def test_refine_reports_the_finer_mesh_with_an_error_estimate(tmp_path, capsys):
     code = main(["G5", "--n", "8", "--load", "0.155", "--refine", "--ladder", "uniform", "--json",
                  "--output", str(output)])
     assert code == 0
-    summary = json.loads(capsys.readouterr().out)
+    captured = capsys.readouterr()
+    summary = json.loads(captured.out)
     assert summary["converged"]
+    # certified: the patches' resolution is in the certificate, not in a warning
+    assert "warning: the contact patches" not in captured.err
+    assert not any(line.startswith("the contact patches") for line in summary["warnings"])
     certificate = certify((summary["mu_s_coarse"], summary["mu_s"]), summary["contact_nodes"],
                           summary["boundary_nodes"])
     assert summary["mu_s_error"] == pytest.approx(certificate.error)
@@ -231,6 +235,14 @@ def test_unresolved_patches_are_warned_about_in_one_line():
     assert "\n" not in warning and "< 4" in warning and "--tol 0.03 refines" in warning
     for summary in ({"reliable": True, "cells_per_patch": 6.0}, {"reliable": None}):
         assert unresolved_warning(summary) is None
+    # a certified result (--tol, --refine) states its error: no warning; without a certificate
+    # (a single level: NaN) the warning stays
+    certified = {"reliable": False, "cells_per_patch": 2.8, "mu_s_error": 0.003}
+    assert unresolved_warning(certified) is None
+    assert unresolved_warning(certified | {"mu_s_error": float("nan")}).startswith(
+        "the contact patches hold 2.8 grid cells")
+    assert unresolved_warning({"reliable": False, "cells_per_patch": 2.8,
+                               "area_ratio_normal_error": 0.001}) is None
 
 
 @pytest.mark.parametrize("flags, message", [
