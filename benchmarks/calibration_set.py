@@ -1,15 +1,17 @@
 """The calibration set: uniform ladders 1x, 2x, 4x, 8x (16x where asked) of 16 x 16 windows,
 run resumably, one row per (window, load, level), stamped with the physics version.
 
-    mpirun -n 2 python -m benchmarks.calibration_set docs/bench/calibration_ladders.csv
+    mpirun -n 2 python -m benchmarks.calibration_set docs/bench/calibration_ladders.csv \
+        [LEVELS [LOADS [SURFACES]]]
 
 The table holds measured values only (mu_s, areas, contact counts, cost); the error estimate
 under test is judged from it afterwards (``benchmarks.calibration``), so an estimate can change
 without re-running the set. Each window runs all its loads on one shared preload per level
 (``solver.run.run_loads``); rows are appended after every level (rank 0, atomically) and a
-window-level already in the table with today's physics (or physics an equivalence record
-beside the table carries to it) is skipped, so a killed run resumes at
-the level it was on.
+window-level-load already in the table with today's physics (or physics an equivalence record
+beside the table carries to it) is skipped, so a killed run resumes at the level it was on,
+and a level run at some loads first (the cheap low loads of an 8x level) gets the others
+later.
 """
 
 from __future__ import annotations
@@ -60,11 +62,14 @@ def write_rows(path: Path, rows: list[dict], columns=COLUMNS, digits: int = 7) -
     atomic_write(Path(path), write)
 
 
-def done(rows: list[dict], surface: str, window: int, level: int, physics) -> bool:
-    """Whether the table holds the window's level made by this code's physics, or by earlier
-    physics an equivalence record carries to it (``physics``: a ``benchmarks.stamps.Physics``)."""
+def done(rows: list[dict], surface: str, window: int, level: int, physics,
+         load: float | None = None) -> bool:
+    """Whether the table holds the window's level (at ``load``, F* [-], if given) made by this
+    code's physics, or by earlier physics an equivalence record carries to it (``physics``: a
+    ``benchmarks.stamps.Physics``)."""
     return any(row["surface"] == surface and int(row["window"]) == window + 1
                and int(row["level"]) == level and physics.is_current(row["physics"])
+               and (load is None or float(row["load_star"]) == load)
                for row in rows)
 
 
@@ -112,13 +117,15 @@ def run_set(path: Path, comm, windows=SET_WINDOWS, n: int = SET_N, loads=SET_LOA
     for surface, window in windows:
         case = FemCase(surface_window(builtin_surface(surface), n, window), Loading(loads[0]))
         for level in levels:
-            if done(rows, surface, window, level, physics):
+            missing = [load for load in loads
+                       if not done(rows, surface, window, level, physics, load)]
+            if not missing:
                 continue
             started = time.perf_counter()
-            runs = run_loads(level_case(case, level), loads, comm, progress=lambda record: None)
+            runs = run_loads(level_case(case, level), missing, comm, progress=lambda record: None)
             wall_s = time.perf_counter() - started
             peak_gb = max(run.result.sizes.get("peak_memory_gb", float("nan")) for run in runs)
-            rows += level_rows(surface, window, n, level, loads, runs, wall_s, peak_gb, stamp)
+            rows += level_rows(surface, window, n, level, missing, runs, wall_s, peak_gb, stamp)
             if comm.rank == 0:
                 write_rows(path, rows)
                 values = ", ".join(f"{run.result.mu_s or float('nan'):.4f}" for run in runs)
@@ -128,15 +135,39 @@ def run_set(path: Path, comm, windows=SET_WINDOWS, n: int = SET_N, loads=SET_LOA
             del runs
 
 
+def set_windows(surfaces: str) -> tuple:
+    """The :data:`SET_WINDOWS` of the comma-separated ``surfaces`` (e.g. ``G1,2L``).
+
+    Raises
+    ------
+    ValueError
+        A surface that is not in the set.
+    """
+    known = dict(SET_WINDOWS)
+    names = surfaces.split(",")
+    unknown = [name for name in names if name not in known]
+    if unknown:
+        raise ValueError(f"not in the calibration set: {', '.join(unknown)}; "
+                         f"it holds {', '.join(known)}")
+    return tuple((name, known[name]) for name in names)
+
+
 def main(argv: list[str] | None = None) -> int:
-    """Run the set into the table given (default docs/bench/calibration_ladders.csv); a second
-    argument lists the levels (e.g. ``0,1,2,3``)."""
+    """``TABLE [LEVELS [LOADS [SURFACES]]]``: run the set into TABLE (default
+    docs/bench/calibration_ladders.csv) on the LEVELS (e.g. ``0,1,2,3``), at the LOADS (F*,
+    e.g. ``0.06,0.155``) of the windows of the SURFACES (e.g. ``G1,G5``), each default all."""
     from mpi4py import MPI
 
     argv = sys.argv[1:] if argv is None else argv
     path = Path(argv[0] if argv else "docs/bench/calibration_ladders.csv")
     levels = tuple(int(level) for level in argv[1].split(",")) if len(argv) > 1 else SET_LEVELS
-    run_set(path, MPI.COMM_WORLD, levels=levels)
+    loads = tuple(float(load) for load in argv[2].split(",")) if len(argv) > 2 else SET_LOADS
+    try:
+        windows = set_windows(argv[3]) if len(argv) > 3 else SET_WINDOWS
+    except ValueError as error:
+        print(f"error: {error}", file=sys.stderr)
+        return 2
+    run_set(path, MPI.COMM_WORLD, windows=windows, loads=loads, levels=levels)
     return 0
 
 

@@ -51,3 +51,29 @@ def test_a_level_counts_as_done_when_its_physics_is_carried_to_this_code(stamp, 
     rows = [{"surface": "G5", "window": "2", "level": "1", "physics": stamp}]
     assert calibration_set.done(rows, "G5", 1, 1, physics) is expected
     assert not calibration_set.done(rows, "G5", 1, 2, physics)
+
+
+def test_a_level_run_at_some_loads_gets_the_others_later(tmp_path, monkeypatch):
+    """A level first run at its low load is completed at the other load alone: the runner asks
+    run_loads for the missing load only, and the table then holds both rows."""
+    import roughfriction.solver.run as solver_run
+    from mpi4py import MPI
+
+    path = tmp_path / "ladders.csv"
+    window = {"windows": (("G5", 1),), "n": 4, "levels": (0,)}
+    calibration_set.run_set(path, MPI.COMM_WORLD, loads=(0.155,), **window)
+    asked = []
+    real = solver_run.run_loads
+    monkeypatch.setattr(solver_run, "run_loads",
+                        lambda case, loads, *a, **k: asked.append(loads) or real(case, loads, *a,
+                                                                                   **k))
+    calibration_set.run_set(path, MPI.COMM_WORLD, loads=(0.06, 0.155), **window)
+    assert asked == [[0.06]]
+    rows = calibration_set.read_rows(path)
+    assert sorted(float(row["load_star"]) for row in rows) == [0.06, 0.155]
+
+
+def test_the_command_picks_surfaces_of_the_set_and_refuses_others(capsys):
+    assert calibration_set.set_windows("G1,2L") == (("G1", 9), ("2L", 54))
+    assert calibration_set.main(["unused.csv", "3", "0.06", "G2"]) == 2
+    assert "not in the calibration set: G2; it holds G1, G3" in capsys.readouterr().err
