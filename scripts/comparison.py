@@ -7,8 +7,9 @@ the contact patches (``scripts.fem_views``); at low load ``fem_windows``,
 ``mu_fem_windows_min`` and ``mu_fem_windows_max`` give the scatter of the windows (on the
 figure's mesh). At the ``ERROR_BAR_LOADS`` (every FEM load) a point is the mu_s on a 2x
 finer mesh of the same surface, with ``mu_fem_error`` (its certified error,
-``studies.certificate``: the bar), ``mu_fem_coarse`` and ``fem_refinement`` (the mesh
-plotted: 1 or 2). A
+``studies.certificate``: the bar), ``mu_fem_coarse``, ``fem_refinement`` (the mesh
+plotted: 1 or 2) and ``fem_uncertified`` (why a point is not certified to 3 %, drawn hollow;
+"" if it is). A
 statistical value outside its model's published range (``multiscale.statistical``) is drawn
 hollow on a dotted line and labelled so."""
 
@@ -27,7 +28,6 @@ from roughfriction.scripts.fem_views import (
     fem_psi,
 )
 from roughfriction.scripts.figures import new_axes
-from roughfriction.solver.results import RELIABLE_CELLS_PER_PATCH
 from roughfriction.studies.certificate import certify
 from roughfriction.studies.paper import (
     ERROR_BAR_LOADS,
@@ -41,8 +41,11 @@ from roughfriction.studies.paper import (
 from roughfriction.studies.refinement import next_mesh
 
 STAND_INS = ("2L", "8L", "63M")
-#: Legend suffix of FEM points whose contact patches are not resolved.
-UNRESOLVED = f"\nhollow: < {RELIABLE_CELLS_PER_PATCH} cells of contact per patch (unresolved)"
+#: A FEM point is certified when its certificate is at most this share of its mu_s [-].
+CERTIFIED_RELATIVE_ERROR = 0.03
+#: Legend suffix of FEM points that are not certified.
+UNCERTIFIED = (f"\nhollow: not certified to {100 * CERTIFIED_RELATIVE_ERROR:g} % "
+               "(CSV: fem_uncertified)")
 #: Largest relative difference of the meshed surface's psi from the surface's own [-].
 PSI_TOLERANCE = 0.03
 
@@ -74,8 +77,8 @@ def error_bars(coarse, fine) -> tuple[list, dict]:
     (``coarse``) and the 2x finer one (``fine``, None where not run): the fine run where it
     reached sliding inception, with its certificate (:func:`certified_error`) if the coarse
     run did too; else the coarse run, no bar. Returns the runs and the columns
-    ``mu_fem_coarse``, ``mu_fem_error`` [-] (NaN: none) and ``fem_refinement`` (1 or 2: the
-    mesh plotted)."""
+    ``mu_fem_coarse``, ``mu_fem_error`` [-] (NaN: none), ``fem_refinement`` (1 or 2: the
+    mesh plotted) and ``fem_uncertified`` (:func:`uncertified_reason`, "" if certified)."""
     plotted, mu_coarse, error, refinement = [], [], [], []
     for one, finer in zip(coarse, fine, strict=True):
         use_finer = finer is not None and bool(np.isfinite(fem_mu(finer)))
@@ -83,26 +86,43 @@ def error_bars(coarse, fine) -> tuple[list, dict]:
         refinement.append(2 if use_finer else 1)
         mu_coarse.append(fem_mu(one))
         error.append(certified_error(one, finer) if use_finer else np.nan)
+    reasons = [uncertified_reason(fem_mu(run), bar, level)
+               for run, bar, level in zip(plotted, error, refinement, strict=True)]
     return plotted, {"mu_fem_coarse": np.array(mu_coarse), "mu_fem_error": np.array(error),
-                     "fem_refinement": np.array(refinement)}
+                     "fem_refinement": np.array(refinement),
+                     "fem_uncertified": np.array(reasons)}
+
+
+def uncertified_reason(mu_s: float, error: float, refinement: int) -> str:
+    """Why a FEM point is not certified to :data:`CERTIFIED_RELATIVE_ERROR` ("" if it is):
+    no finer level, or a certificate above it."""
+    if not np.isfinite(mu_s):
+        return ""
+    if not np.isfinite(error):
+        return ("no certificate: the 2x level did not reach sliding inception" if refinement == 1
+                else "no certificate")
+    if error > CERTIFIED_RELATIVE_ERROR * mu_s:
+        return (f"certificate {100 * error / mu_s:.1f} % of mu_s > "
+                f"{100 * CERTIFIED_RELATIVE_ERROR:g} %")
+    return ""
 
 
 def draw_fem(ax, x, runs, error, label: str) -> tuple[np.ndarray, np.ndarray]:
-    """The FEM's mu_s at ``x`` (circles, with ``error`` bars where finite: filled, hollow where
-    the run's contact patches hold fewer than ``RELIABLE_CELLS_PER_PATCH`` grid cells, the
-    paper's unresolved range) and, for runs that failed before sliding inception, the F_t/F_n
-    they reached (hollow triangles: mu_s is at least that); return both [-] (NaN where
-    absent)."""
+    """The FEM's mu_s at ``x`` (circles, with ``error`` bars where finite: filled where the
+    bar, the certificate, is at most :data:`CERTIFIED_RELATIVE_ERROR` of mu_s, else hollow)
+    and, for runs that failed before sliding inception, the F_t/F_n they reached (hollow
+    triangles: mu_s is at least that); return both [-] (NaN where absent)."""
     x = np.asarray(x, dtype=float)
     mu_fem = np.array([fem_mu(run) for run in runs])
     at_least = np.array([fem_mu_at_least(run) for run in runs])
+    error = np.asarray(error, dtype=float)
     bars = np.where(np.isfinite(error), error, 0.0)
-    unresolved = np.array([fem_cells_per_patch(run) < RELIABLE_CELLS_PER_PATCH
-                           for run in runs]) & np.isfinite(mu_fem)
+    certified = np.isfinite(error) & (error <= CERTIFIED_RELATIVE_ERROR * mu_fem)
+    uncertified = ~certified & np.isfinite(mu_fem)
     if np.isfinite(error).any():
         label += " (on a 2x finer mesh where barred; bar: its certified error)"
-    for points, style, text in ((~unresolved, {}, label),
-                                (unresolved, {"mfc": "none"}, label + UNRESOLVED)):
+    for points, style, text in ((certified, {}, label),
+                                (uncertified, {"mfc": "none"}, label + UNCERTIFIED)):
         if points.any():
             ax.errorbar(x[points], mu_fem[points], yerr=bars[points], fmt="ko", ms=5, capsize=3,
                         label=text, **style)
@@ -237,7 +257,8 @@ def load_sweep(name: str, runs):
         "load_star": np.concatenate([fem_loads, loads, loads]),
         "psi_fem": np.concatenate([psi_fem, np.full(2 * len(loads), np.nan)]),
         "mu_s": np.concatenate([mu_fem, [result.mu_s for result in theory], mu_let]),
-        **{key: np.concatenate([values, np.full(2 * len(loads), np.nan)])
+        **{key: np.concatenate([values, np.full(2 * len(loads),
+                                                "" if values.dtype.kind == "U" else np.nan)])
            for key, values in errors.items()},
         "fem_pressure_over_Sy": np.concatenate([[fem_contact_pressure(run) for run in runs],
                                                 np.full(2 * len(loads), np.nan)]),

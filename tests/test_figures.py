@@ -468,26 +468,37 @@ def test_fig14_with_fem_points_end_to_end_and_cached(tmp_path, monkeypatch):
         np.testing.assert_array_equal(again[key], data[key])
 
 
-def test_mu_vs_psi_draws_points_with_unresolved_patches_hollow():
-    """A FEM point whose patches hold fewer than 4 grid cells of contact is drawn hollow under
-    its own legend entry; the others stay filled."""
+def test_mu_vs_psi_draws_points_not_certified_to_3_percent_hollow():
+    """A FEM point whose certificate (its bar) is above 3 % of its mu_s is drawn hollow under
+    its own legend entry, with the reason in the CSV; the certified ones stay filled."""
     from roughfriction.scripts import fig23
-    from roughfriction.scripts.comparison import UNRESOLVED
+    from roughfriction.scripts.comparison import UNCERTIFIED
+    from roughfriction.studies.certificate import certify
 
     runs = fake_runs(fig23.fem_cases(8), [0.3] * 18)
-    for run, cells in zip(runs[9:], [0.5, 3.9, *[4.0] * 7], strict=True):  # the 2x runs drawn
-        run.summary["cells_per_patch"] = cells
+    # the 2x runs drawn: equal values, so the certificate is the resolution term alone,
+    # C_b mu sqrt(N_b) / N: few contact nodes on the first two, many on the others
+    for run, nodes in zip(runs[9:], [100, 400, *[40000] * 7], strict=True):
+        run.summary |= {"contact_nodes": nodes, "boundary_nodes": nodes}
     fig, columns = fig23.make(runs)
+    expected = [certify((0.3, 0.3), nodes, nodes).error for nodes in (100, 400, 40000)]
+    assert expected[0] > expected[1] > 0.03 * 0.3 > expected[2]  # the case is as intended
+    np.testing.assert_allclose(columns["mu_fem_error"][:3], expected)
     handles, labels = fig.axes[0].get_legend_handles_labels()
     label = "FEM, N = 8 (on a 2x finer mesh where barred; bar: its certified error)"
-    hollow = handles[labels.index(label + UNRESOLVED)]
+    hollow = handles[labels.index(label + UNCERTIFIED)]
     assert len(hollow.lines[0].get_xdata()) == 2 and hollow.lines[0].get_mfc() == "none"
     filled = handles[labels.index(label)]
     assert len(filled.lines[0].get_xdata()) == 7
-    np.testing.assert_array_equal(columns["fem_cells_per_patch"][:2], [0.5, 3.9])
-    runs = fake_runs(fig23.fem_cases(8), [0.3] * 18)  # no cells per patch: not marked
-    labels = fig23.make(runs)[0].axes[0].get_legend_handles_labels()[1]
-    assert not any(label.endswith(UNRESOLVED) for label in labels)
+    assert columns["fem_uncertified"][0] == (
+        f"certificate {100 * expected[0] / 0.3:.1f} % of mu_s > 3 %")
+    assert list(columns["fem_uncertified"][2:]) == [""] * 7
+    runs = fake_runs(fig23.fem_cases(8), [0.3] * 9 + [None] * 9)  # no 2x level: no bars
+    fig, columns = fig23.make(runs)
+    labels = fig.axes[0].get_legend_handles_labels()[1]
+    assert "FEM, N = 8" + UNCERTIFIED in labels
+    assert set(columns["fem_uncertified"]) == {
+        "no certificate: the 2x level did not reach sliding inception"}
 
 
 def test_the_makefile_names_no_figure_and_reads_the_registry():
