@@ -137,7 +137,7 @@ def matrix_bytes(matrix) -> int:
     nonzeros times :data:`NONZERO_BYTES`, plus the row pointers) [B]; 0 for None."""
     if matrix is None:
         return 0
-    info = matrix.getInfo()
+    info = matrix.getInfo(PETSc.Mat.InfoType.LOCAL)  # petsc4py's default sums the ranks
     rows = matrix.getLocalSize()[0]
     return int(info["nz_allocated"]) * NONZERO_BYTES + 8 * (rows + 1)
 

@@ -119,3 +119,25 @@ def test_bench_profile_runs_a_finer_level_of_the_case(tmp_path, monkeypatch, cap
     assert fine["memory"]["reduced_dofs"] > 4 * coarse["memory"]["reduced_dofs"]
     assert main(["profile", "G5", "--load", "0.155", "--n", "6", "--level", "-1"]) == 2
     assert "--level must be 0 or more" in capsys.readouterr().err
+
+
+@pytest.mark.mpi
+def test_a_matrix_counts_the_bytes_of_this_ranks_rows():
+    """Summed over the ranks, the bytes of a distributed matrix are its nonzeros' and row
+    pointers' once (petsc4py's getInfo() sums the ranks by default)."""
+    from petsc4py import PETSc
+
+    from benchmarks.profile import NONZERO_BYTES, matrix_bytes
+
+    comm = MPI.COMM_WORLD
+    rows = 10
+    matrix = PETSc.Mat().createAIJ(((rows, None), (rows, None)), nnz=(1, 0), comm=comm)
+    start, end = matrix.getOwnershipRange()
+    for row in range(start, end):
+        matrix.setValue(row, row, 1.0)
+    matrix.assemble()
+    expected = NONZERO_BYTES * rows * comm.size + 8 * (rows + 1) * comm.size  # 1 per row
+    try:
+        assert comm.allreduce(matrix_bytes(matrix)) == expected
+    finally:
+        matrix.destroy()
