@@ -3,7 +3,9 @@
 ``roughfriction figure claims`` reads ``figures/figNN.csv`` (written by ``make figures``) and
 writes ``figures/claims.md``: one row per statement, with the paper's words, our numbers and
 whether they agree. A figure whose CSV is missing, or whose FEM values are missing, gives a row
-that says so instead of a verdict.
+that says so instead of a verdict. Where a FEM point has a certificate (``mu_fem_error``), a
+comparison of the FEM with the model is decided only by the points that differ beyond their
+bars; the rest give "within the bars".
 """
 
 from __future__ import annotations
@@ -19,6 +21,8 @@ PAPER_JUNCTION_GROWTH = 0.1875
 COMPLETE_CONTACT = 0.99
 #: Largest max/min ratio of mu_s over the loads for "nearly constant" [-].
 NEARLY_CONSTANT = 1.25
+#: Loads F* at or below which "low load" holds (the paper: FEM above the model there) [-].
+LOW_LOAD = 0.155
 
 
 def _falls(values: np.ndarray) -> str:
@@ -32,9 +36,36 @@ def _series(values: np.ndarray) -> str:
     return " / ".join("–" if not np.isfinite(v) else f"{v:.3g}" for v in values)
 
 
-def _row(figure: str, paper: str, ours: str, agrees: bool | None) -> tuple:
-    verdict = {True: "yes", False: "no", None: "—"}[agrees]
+def _row(figure: str, paper: str, ours: str, agrees: bool | str | None) -> tuple:
+    """A claims row; ``agrees`` True, False, None (no verdict) or a verdict of its own."""
+    verdict = agrees if isinstance(agrees, str) else {True: "yes", False: "no", None: "—"}[agrees]
     return figure, paper, ours, verdict
+
+
+#: Verdict of a comparison that the FEM points' bars leave open.
+WITHIN_BARS = "within the bars"
+
+
+def _with_bars(values: np.ndarray, bars: np.ndarray) -> str:
+    """'0.206±0.003 / ...' (a value without a finite bar alone)."""
+    return " / ".join("–" if not np.isfinite(v) else f"{v:.3g}" if not np.isfinite(e)
+                      else f"{v:.3g}±{e:.2g}" for v, e in zip(values, bars, strict=True))
+
+
+def above_model(fem: np.ndarray, bars: np.ndarray, theory: np.ndarray) -> dict:
+    """How many FEM points [-] lie above the model beyond their bar, within it, and below it
+    beyond it (a point without a bar counts by its value alone)."""
+    bars = np.where(np.isfinite(bars), bars, 0.0)
+    finite = np.isfinite(fem) & np.isfinite(theory)
+    return {"above": int(np.sum(finite & (fem - bars > theory))),
+            "within": int(np.sum(finite & (np.abs(fem - theory) <= bars))),
+            "below": int(np.sum(finite & (fem + bars < theory)))}
+
+
+def _fem_errors(t: dict, key: str = "mu_fem_error") -> np.ndarray:
+    """The FEM points' certificates [-] (NaN where none, or the CSV has none)."""
+    reference = t.get("mu_fem", t.get("mu_s"))
+    return np.asarray(t[key], float) if key in t else np.full(len(reference), np.nan)
 
 
 def junction_growth(t: dict) -> list[tuple]:
@@ -74,12 +105,26 @@ def psi_sweep(t: dict, figure: str) -> list[tuple]:
         agrees = None if len(finite) < 2 else bool(finite[-1] < finite[0])
         rows.append(_row(figure, f"μ_s decreases as ψ increases ({label})",
                          f"G1→G9: {_series(values)} ({_falls(values)})", agrees))
-    below, points = int(np.sum(theory < fem)), int(np.sum(np.isfinite(fem)))
+    bars = _fem_errors(t)
+    count = above_model(fem, bars, theory)
+    points = sum(count.values())
     rows.append(_row(figure, "multi-scale below the FEM"
                      + (" except the first point" if figure == "24" else ""),
-                     f"below at {below} of {points} FEM points; FEM/multi-scale "
-                     f"{_series(fem / theory)}", below >= points - 1))
+                     f"below at {count['above']} of {points} FEM points beyond their bars "
+                     f"({count['within']} within, FEM below at {count['below']}); FEM/multi-scale "
+                     f"{_with_bars(fem / theory, bars / theory)}",
+                     model_below_verdict(count)))
     return rows
+
+
+def model_below_verdict(count: dict) -> bool | str:
+    """'multi-scale below the FEM' from :func:`above_model`'s counts: yes if it is below beyond
+    the bars at all points but one, no if the FEM lies below it beyond them at two or more,
+    else :data:`WITHIN_BARS`."""
+    points = sum(count.values())
+    if count["above"] >= points - 1:
+        return True
+    return False if count["below"] >= 2 else WITHIN_BARS
 
 
 def psi_pair(t: dict) -> list[tuple]:
@@ -109,14 +154,50 @@ def load_sweep(t: dict, figure: str, name: str) -> list[tuple]:
         rows.append(_row("26", "2L: FEM μ_s decreases with load",
                          f"F* {_series(loads)}: {_series(mu_fem)} ({_falls(mu_fem)})",
                          bool(np.nanargmax(mu_fem) < np.nanargmin(mu_fem))))
-    gap = np.abs(mu_fem / np.interp(loads, t["load_star"][theory], mu_theory) - 1.0)
-    finite = np.isfinite(gap)
-    if finite.sum() >= 2:
-        first, last = gap[finite][0], gap[finite][-1]
-        rows.append(_row(figure, f"{name}: FEM approaches the model at high load",
-                         f"abs(FEM/multi-scale − 1) {first:.2f} at F* = {loads[finite][0]:g}, "
-                         f"{last:.2f} at {loads[finite][-1]:g}", bool(last < first)))
+    model = np.interp(loads, t["load_star"][theory], mu_theory)
+    bars = _fem_errors(t)[fem]
+    rows += approach_rows(figure, name, loads, mu_fem, bars, model)
+    low = loads <= LOW_LOAD
+    if low.any():
+        count = above_model(mu_fem[low], bars[low], model[low])
+        rows.append(_row(figure, f"{name}: FEM above the model at low load",
+                         f"F* {_series(loads[low])}: FEM/multi-scale "
+                         f"{_with_bars(mu_fem[low] / model[low], bars[low] / model[low])} "
+                         f"(above beyond the bar at {count['above']} of {sum(count.values())})",
+                         above_verdict(count)))
     return rows
+
+
+def approach_rows(figure: str, name: str, loads, mu_fem, bars, model) -> list[tuple]:
+    """Figs. 26-28: |FEM/model - 1| at the lowest and highest FEM load, with the bars; yes or no
+    where the two gaps differ beyond their bars, else :data:`WITHIN_BARS`."""
+    gap = np.abs(mu_fem / model - 1.0)
+    bar = np.where(np.isfinite(bars), bars, 0.0) / model
+    finite = np.flatnonzero(np.isfinite(gap))
+    if len(finite) < 2:
+        return []
+    first, last = finite[0], finite[-1]
+    verdict = (True if gap[last] + bar[last] < gap[first] - bar[first]
+               else False if gap[last] - bar[last] > gap[first] + bar[first] else WITHIN_BARS)
+    return [_row(figure, f"{name}: FEM approaches the model at high load",
+                 f"abs(FEM/multi-scale − 1) {_with_bars(gap[[first]], _bar(bars, model, first))}"
+                 f" at F* = {loads[first]:g}, "
+                 f"{_with_bars(gap[[last]], _bar(bars, model, last))} at {loads[last]:g}",
+                 verdict)]
+
+
+def _bar(bars, model, index: int) -> np.ndarray:
+    """The bar of the gap |FEM/model - 1| at ``index`` (NaN where the point has none)."""
+    return np.array([bars[index] / model[index]])
+
+
+def above_verdict(count: dict) -> bool | str:
+    """'FEM above the model' from :func:`above_model`'s counts: yes if above beyond the bars at
+    every point, no if below beyond them at any, else :data:`WITHIN_BARS`."""
+    points = sum(count.values())
+    if count["above"] == points:
+        return True
+    return False if count["below"] else WITHIN_BARS
 
 
 def stiffness_order(t: dict, figure: str) -> list[tuple]:

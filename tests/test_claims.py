@@ -9,9 +9,12 @@ NAMES = np.array([f"G{k}" for k in range(1, 10)])
 PSI = np.array([1.32, 3.34, 6.63, 10.0, 13.2, 16.59, 19.7, 23.1, 26.2])
 
 
-def psi_sweep(path, mu_fem, mu_theory):
-    write_table(path, {"surface": NAMES, "psi": PSI, "mu_fem": np.asarray(mu_fem, float),
-                       "mu_multiscale": np.asarray(mu_theory, float)})
+def psi_sweep(path, mu_fem, mu_theory, mu_error=None):
+    columns = {"surface": NAMES, "psi": PSI, "mu_fem": np.asarray(mu_fem, float),
+               "mu_multiscale": np.asarray(mu_theory, float)}
+    if mu_error is not None:
+        columns["mu_fem_error"] = np.asarray(mu_error, float)
+    write_table(path, columns)
 
 
 def verdicts(directory, figure: str) -> dict:
@@ -31,6 +34,19 @@ def test_psi_sweep_statements(tmp_path):
     assert found["μ_s decreases as ψ increases (FEM)"] == "no"
     assert found["multi-scale below the FEM"] == "no"
     assert found["μ_s(ψ = 16.59) > μ_s(ψ = 13.20) (FEM)"] == "yes"
+
+
+def test_the_model_below_the_fem_is_judged_beyond_the_bars(tmp_path):
+    theory = np.linspace(0.6, 0.2, 9)
+    psi_sweep(tmp_path / "fig22.csv", theory * 1.02, theory, theory * 0.03)  # 2 % above, 3 % bars
+    found = verdicts(tmp_path, "22")
+    assert found["multi-scale below the FEM"] == "within the bars"
+    psi_sweep(tmp_path / "fig22.csv", theory * 1.05, theory, theory * 0.03)
+    assert verdicts(tmp_path, "22")["multi-scale below the FEM"] == "yes"
+    below = theory * np.where(np.arange(9) < 2, 0.9, 1.05)  # two points 10 % below, 3 % bars
+    psi_sweep(tmp_path / "fig22.csv", below, theory, theory * 0.03)
+    row = next(row for row in claims(tmp_path) if row[1] == "multi-scale below the FEM")
+    assert row[3] == "no" and "FEM below at 2" in row[2] and "0.9±0.03" in row[2]
 
 
 def test_missing_figures_give_no_verdict_and_high_load_closeness(tmp_path):
@@ -74,6 +90,30 @@ def test_load_sweep_statements(tmp_path):
     written = [(cells[0].strip(), cells[1].strip(), cells[-1].strip()) for cells in rows]
     assert {paper: verdict for fig, paper, verdict in written if fig == "26"} == found
     assert len(written) == len(claims(tmp_path))  # one row per statement, figures not drawn too
+
+
+def test_low_load_and_approach_with_bars(tmp_path):
+    loads = np.array([0.06, 0.155, 1.86])
+    theory_loads = np.array([0.05, 0.5, 2.0])
+    mu_theory = np.full(3, 0.3)
+
+    def sweep(mu_fem, bars):
+        write_table(tmp_path / "fig28.csv", {
+            "model": np.array(["fem"] * 3 + ["multiscale"] * 3),
+            "load_star": np.concatenate([loads, theory_loads]),
+            "mu_s": np.concatenate([mu_fem, mu_theory]),
+            "mu_fem_error": np.concatenate([bars, np.full(3, np.nan)])})
+        return verdicts(tmp_path, "28")
+
+    found = sweep(np.array([0.33, 0.33, 0.303]), np.full(3, 0.006))  # 10 % above at low load
+    assert found["G5: FEM above the model at low load"] == "yes"
+    assert found["G5: FEM approaches the model at high load"] == "yes"
+    found = sweep(np.array([0.306, 0.303, 0.303]), np.full(3, 0.006))  # 1-2 % above, 2 % bars
+    assert found["G5: FEM above the model at low load"] == "within the bars"
+    assert found["G5: FEM approaches the model at high load"] == "within the bars"
+    found = sweep(np.array([0.27, 0.30, 0.36]), np.full(3, 0.006))
+    assert found["G5: FEM above the model at low load"] == "no"
+    assert found["G5: FEM approaches the model at high load"] == "no"
 
 
 def test_stiffness_orderings(tmp_path):
