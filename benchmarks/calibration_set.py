@@ -99,8 +99,9 @@ def level_rows(surface: str, window: int, n: int, level: int, loads, runs, wall_
 def run_set(path: Path, comm, windows=SET_WINDOWS, n: int = SET_N, loads=SET_LOADS,
             levels=SET_LEVELS, level_case=None) -> None:
     """Run every window's levels not yet in ``path`` with today's physics, appending as each
-    finishes; progress on stderr (rank 0). ``level_case(case, level)``: the case of a level
-    (default the uniform ladder's, ``studies.refinement.level_case``)."""
+    finishes; progress on stderr (rank 0), a line per step (:func:`level_progress`).
+    ``level_case(case, level)``: the case of a level (default the uniform ladder's,
+    ``studies.refinement.level_case``)."""
     from roughfriction.case import FemCase, Loading
     from roughfriction.geometry.generate import builtin_surface
     from roughfriction.solver.run import run_loads
@@ -122,7 +123,8 @@ def run_set(path: Path, comm, windows=SET_WINDOWS, n: int = SET_N, loads=SET_LOA
             if not missing:
                 continue
             started = time.perf_counter()
-            runs = run_loads(level_case(case, level), missing, comm, progress=lambda record: None)
+            runs = run_loads(level_case(case, level), missing, comm,
+                             progress=level_progress(comm, f"{surface} {2**level}x"))
             wall_s = time.perf_counter() - started
             peak_gb = max(run.result.sizes.get("peak_memory_gb", float("nan")) for run in runs)
             rows += level_rows(surface, window, n, level, missing, runs, wall_s, peak_gb, stamp)
@@ -133,6 +135,16 @@ def run_set(path: Path, comm, windows=SET_WINDOWS, n: int = SET_N, loads=SET_LOA
                       f"({2**level}x): mu_s {values}; {runs[0].result.sizes['reduced_dofs']} "
                       f"dofs, {wall_s:.0f} s, {peak_gb:.2f} GB", file=sys.stderr, flush=True)
             del runs
+
+
+def level_progress(comm, label: str):
+    """A run's progress callable: each record (``solver.progress``) as one stderr line on rank
+    0, with the clock and ``label``, so a level of hours shows where it is."""
+    def write(record) -> None:
+        if comm.rank == 0:
+            print(f"  {time.strftime('%H:%M')} {label}: {str(record).strip()}", file=sys.stderr,
+                  flush=True)
+    return write
 
 
 def set_windows(surfaces: str) -> tuple:

@@ -9,7 +9,7 @@ from benchmarks import calibration, calibration_set
 pytestmark = pytest.mark.fem
 
 
-def test_a_small_case_runs_resumes_and_is_judged(tmp_path, monkeypatch):
+def test_a_small_case_runs_resumes_and_is_judged(tmp_path, monkeypatch, capsys):
     """A 4 x 4 window of G5 at F* = 0.155 on uniform levels 1x-8x: one row per level with its
     contact counts and physics; run again, nothing is computed; its 2x level is judged
     against the 8x reference."""
@@ -21,6 +21,9 @@ def test_a_small_case_runs_resumes_and_is_judged(tmp_path, monkeypatch):
     calibration_set.run_set(path, MPI.COMM_WORLD, levels=(0, 1, 2, 3), **set_of_one)
     rows = calibration_set.read_rows(path)
     assert [int(row["level"]) for row in rows] == [0, 1, 2, 3]
+    progress = capsys.readouterr().err
+    assert "G5 8x: FEM G5" in progress and "G5 8x: normal " in progress  # a line per step
+    assert "G5 8x: tangential " in progress
     assert {row["physics"] for row in rows} == {physics_stamp(physics_version())}
     nodes = [int(row["contact_nodes"]) for row in rows]
     assert all(0 < int(row["boundary_nodes"]) <= node for row, node in zip(rows, nodes,
