@@ -171,8 +171,11 @@ def stamp_line(stamps: Sequence[RowStamp], physics: Physics) -> str:
         named = sorted({stamp.physics for stamp in stamps})
         if named == [physics.today]:
             return f"*Physics {physics.today} (this code's).*"
-        return (f"*Physics {', '.join(named)}, carried to this code's {physics.today} by "
-                f"{EQUIVALENCE_PATH}.*")
+        earlier = ", ".join(stamp for stamp in named if stamp != physics.today)
+        if physics.today in named:
+            return (f"*Physics {physics.today} (this code's) and {earlier}, carried to it by "
+                    f"{EQUIVALENCE_PATH}.*")
+        return f"*Physics {earlier}, carried to this code's {physics.today} by {EQUIVALENCE_PATH}.*"
     current = sum(physics.is_current(stamp.physics) for stamp in stamps)
     if current:
         parts.append(f"the other {rows_text(current)}: this code's")

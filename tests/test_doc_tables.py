@@ -233,8 +233,11 @@ def test_the_line_under_a_table_names_the_physics_of_its_rows(bench):
         f"*Made by earlier physics, not re-run since: physics {EARLIER} (1 row); the other "
         f"2 rows: this code's. This code's physics: {TODAY}.*")
     assert stamp_line_of(bench, stamps.Physics(TODAY, {EARLIER: TODAY})) == (
-        f"*Physics {TODAY}, {EARLIER}, carried to this code's {TODAY} by "
+        f"*Physics {TODAY} (this code's) and {EARLIER}, carried to it by "
         "docs/bench/equivalence.csv.*")
+    stamped_fem_csv(bench, EARLIER, EARLIER, EARLIER)
+    assert stamp_line_of(bench, stamps.Physics(TODAY, {EARLIER: TODAY})) == (
+        f"*Physics {EARLIER}, carried to this code's {TODAY} by docs/bench/equivalence.csv.*")
     (bench / "fem.csv").write_text(FEM_CSV)  # made before the stamps
     assert stamp_line_of(bench, today) == (
         f"*Made by earlier physics, not re-run since: no physics stamp (3 rows). This code's "
