@@ -55,17 +55,18 @@ def _with_bars(values: np.ndarray, bars: np.ndarray) -> str:
 def above_model(fem: np.ndarray, bars: np.ndarray, theory: np.ndarray) -> dict:
     """How many FEM points [-] lie above the model beyond their bar, within it, and below it
     beyond it (a point without a bar counts by its value alone)."""
-    bars = np.where(np.isfinite(bars), bars, 0.0)
+    bars = np.nan_to_num(bars)
     finite = np.isfinite(fem) & np.isfinite(theory)
     return {"above": int(np.sum(finite & (fem - bars > theory))),
             "within": int(np.sum(finite & (np.abs(fem - theory) <= bars))),
             "below": int(np.sum(finite & (fem + bars < theory)))}
 
 
-def _fem_errors(t: dict, key: str = "mu_fem_error") -> np.ndarray:
+def _fem_errors(t: dict) -> np.ndarray:
     """The FEM points' certificates [-] (NaN where none, or the CSV has none)."""
-    reference = t.get("mu_fem", t.get("mu_s"))
-    return np.asarray(t[key], float) if key in t else np.full(len(reference), np.nan)
+    if "mu_fem_error" in t:
+        return np.asarray(t["mu_fem_error"], float)
+    return np.full(len(t.get("mu_fem", t.get("mu_s"))), np.nan)
 
 
 def junction_growth(t: dict) -> list[tuple]:
@@ -171,24 +172,18 @@ def load_sweep(t: dict, figure: str, name: str) -> list[tuple]:
 def approach_rows(figure: str, name: str, loads, mu_fem, bars, model) -> list[tuple]:
     """Figs. 26-28: |FEM/model - 1| at the lowest and highest FEM load, with the bars; yes or no
     where the two gaps differ beyond their bars, else :data:`WITHIN_BARS`."""
-    gap = np.abs(mu_fem / model - 1.0)
-    bar = np.where(np.isfinite(bars), bars, 0.0) / model
+    gap, gap_bar = np.abs(mu_fem / model - 1.0), bars / model
     finite = np.flatnonzero(np.isfinite(gap))
     if len(finite) < 2:
         return []
     first, last = finite[0], finite[-1]
+    bar = np.nan_to_num(gap_bar)  # a point without a bar counts by its value alone
     verdict = (True if gap[last] + bar[last] < gap[first] - bar[first]
                else False if gap[last] - bar[last] > gap[first] + bar[first] else WITHIN_BARS)
     return [_row(figure, f"{name}: FEM approaches the model at high load",
-                 f"abs(FEM/multi-scale − 1) {_with_bars(gap[[first]], _bar(bars, model, first))}"
-                 f" at F* = {loads[first]:g}, "
-                 f"{_with_bars(gap[[last]], _bar(bars, model, last))} at {loads[last]:g}",
-                 verdict)]
-
-
-def _bar(bars, model, index: int) -> np.ndarray:
-    """The bar of the gap |FEM/model - 1| at ``index`` (NaN where the point has none)."""
-    return np.array([bars[index] / model[index]])
+                 f"abs(FEM/multi-scale − 1) {_with_bars(gap[[first]], gap_bar[[first]])} at "
+                 f"F* = {loads[first]:g}, {_with_bars(gap[[last]], gap_bar[[last]])} at "
+                 f"{loads[last]:g}", verdict)]
 
 
 def above_verdict(count: dict) -> bool | str:
