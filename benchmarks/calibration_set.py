@@ -105,6 +105,7 @@ def run_set(path: Path, comm, windows=SET_WINDOWS, n: int = SET_N, loads=SET_LOA
     from roughfriction.case import FemCase, Loading
     from roughfriction.geometry.generate import builtin_surface
     from roughfriction.solver.run import run_loads
+    from roughfriction.studies.cache import release
     from roughfriction.studies.paper import surface_window
     from roughfriction.studies.refinement import level_case as uniform_level_case
 
@@ -125,6 +126,7 @@ def run_set(path: Path, comm, windows=SET_WINDOWS, n: int = SET_N, loads=SET_LOA
             started = time.perf_counter()
             runs = run_loads(level_case(case, level), missing, comm,
                              progress=level_progress(comm, f"{surface} {2**level}x"))
+            release(runs)  # the rows need their results alone; the next level starts empty
             wall_s = time.perf_counter() - started
             peak_gb = max(run.result.sizes.get("peak_memory_gb", float("nan")) for run in runs)
             rows += level_rows(surface, window, n, level, missing, runs, wall_s, peak_gb, stamp)

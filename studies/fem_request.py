@@ -23,6 +23,7 @@ from roughfriction.case import FemCase
 from roughfriction.errors import ConvergenceError, InputError
 from roughfriction.files import agreed, check_results_file, check_writable_directory
 from roughfriction.plausibility import material_record, result_warnings
+from roughfriction.studies.cache import release
 from roughfriction.studies.fem_input import PYTHON_NAMES, InputNames
 from roughfriction.studies.refinement import (
     DEFAULT_MARGIN,
@@ -265,6 +266,7 @@ def run_once(case: FemCase, outputs: FemOutputs, meshed: dict, comm, voice: Voic
     from roughfriction.solver.run import run
 
     outcome = run(case, comm, voice.progress(case), xdmf_directory=outputs.fields)
+    release([outcome])  # what is written below is its result and maps
     summary = with_warnings({**outcome.result.summary(), **meshed}, case)
     save(outputs.results, case, outcome, comm, {**meshed, "warnings": summary["warnings"]},
          outputs.request)
@@ -292,6 +294,7 @@ def run_levels(case: FemCase, outputs: FemOutputs, limits: LadderLimits, meshed:
         voice.say(level_header(level, level_case, limits, done, comm.size))
         fem_run = run(level_case, comm, voice.progress(level_case),
                       xdmf_directory=outputs.fields if level == 0 else None)
+        release([fem_run])  # so that the next level's memory starts from this one's
         summary = fem_run.result.summary()
         finest.update(summary)
         done.append({"wall_s": summary["wall_s"], "cut_steps": summary["cut_steps"],

@@ -80,3 +80,16 @@ def test_the_command_picks_surfaces_of_the_set_and_refuses_others(capsys):
     assert calibration_set.set_windows("G1,2L") == (("G1", 9), ("2L", 54))
     assert calibration_set.main(["unused.csv", "3", "0.06", "G2"]) == 2
     assert "not in the calibration set: G2; it holds G1, G3" in capsys.readouterr().err
+
+
+def test_each_level_frees_its_model_before_the_next_is_built(tmp_path, monkeypatch):
+    """The set runs many levels in one process: each level's PETSc objects are freed before
+    the next level is built (``tests/test_fem_cli_ladder.py`` says why)."""
+    from mpi4py import MPI
+
+    from tests.test_fem_cli_ladder import model_events
+
+    events = model_events(monkeypatch)
+    calibration_set.run_set(tmp_path / "ladders.csv", MPI.COMM_WORLD, windows=(("G5", 1),),
+                            n=4, loads=(0.155,), levels=(0, 1))
+    assert events == ["built", "freed", "built", "freed"]

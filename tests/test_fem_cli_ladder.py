@@ -103,3 +103,36 @@ def test_an_unknown_ladder_is_a_command_line_error(capsys):
     with pytest.raises(SystemExit):
         main([*WINDOW, "--tol", "0.1", "--ladder", "octree"])
     assert "invalid choice: 'octree'" in capsys.readouterr().err
+
+
+def model_events(monkeypatch) -> list[str]:
+    """"built" and "freed", in order, for every FEM model (``Equilibrium``) of the test."""
+    from roughfriction.solver.equilibrium import Equilibrium
+
+    events = []
+    build, free = Equilibrium.__init__, Equilibrium.destroy
+
+    def built(self, *args, **kwargs):
+        build(self, *args, **kwargs)
+        events.append("built")
+
+    def freed(self):
+        free(self)
+        events.append("freed")
+    monkeypatch.setattr(Equilibrium, "__init__", built)
+    monkeypatch.setattr(Equilibrium, "destroy", freed)
+    return events
+
+
+@pytest.mark.fem
+def test_each_level_frees_its_model_before_the_next_is_built(tmp_path, monkeypatch, capsys):
+    """petsc4py does not free PETSc objects that reference each other: a level's matrices and
+    solver are freed once it has run, so that the next level's peak is its own, and a single
+    run frees its model too (a batch of API calls in one process does not grow)."""
+    events = model_events(monkeypatch)
+    assert main([*WINDOW, "--refine", "--output", str(tmp_path / "run.h5")]) == 0
+    assert json.loads(capsys.readouterr().out)["levels"]["factor"] == [1, 2]
+    assert events == ["built", "freed", "built", "freed"]
+    events.clear()
+    assert main([*WINDOW, "--output", str(tmp_path / "once.h5")]) == 0
+    assert events == ["built", "freed"]
